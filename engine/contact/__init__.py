@@ -1,0 +1,63 @@
+"""Contact detection: cell-grid broadphase with a Verlet skin, then the narrowphase.
+
+Public stage: :func:`detect` ``(model, state)``.
+"""
+from __future__ import annotations
+
+import numpy as np
+
+from .broadphase import build_pairs, max_displacement
+from .narrowphase import narrowphase, tangent_frame
+
+__all__ = ["detect", "rebuild_pairs", "tangent_frame"]
+
+
+def rebuild_pairs(model, state) -> None:
+    """Rebuild the candidate sphere–sphere pairs (surface distance < alert + skin).
+
+    The buffer ``state.pairs`` grows until every pair fits (none is dropped).
+    """
+    o = model.options
+    margin = o.alert + o.skin
+    while True:
+        n = build_pairs(state.position, model.body_radius, model.body_group, model.pair_law,
+                        model.sphere_ids, margin, state.pairs)
+        if n <= state.pairs.shape[0]:
+            break
+        state.pairs = np.zeros((int(n * 1.3) + 64, 2), np.int32)
+    state.n_pairs = n
+    state.pairs_ref = state.position.copy()
+
+
+def detect(model, state) -> bool:
+    """Find the active contacts at the current configuration (stage 2 of :func:`engine.step`).
+
+    Called when ``state.position`` holds the θ-predicted configuration
+    q_i + (1-θ) h v_i and ``state.vel6`` the free velocities.  Rebuilds the candidate list
+    when a sphere has moved (or will move within this step) more than skin/2 since the last
+    build.  Fills ``state.contacts_buf`` (grown as needed; nothing is dropped).
+
+    Returns
+    -------
+    bool
+        True if the candidate list was rebuilt.
+    """
+    o = model.options
+    htheta = o.theta * o.dt
+    rebuilt = False
+    if state.pairs_ref is None or max_displacement(
+            state.position, state.pairs_ref, state.vel6, model.sphere_ids, htheta) > 0.5 * o.skin:
+        rebuild_pairs(model, state)
+        rebuilt = True
+    c = state.contacts_buf
+    while True:
+        k = narrowphase(state.position, state.vel6, model.body_radius, model.body_kind,
+                        model.body_group, model.body_axis, model.body_height, model.body_caps,
+                        model.pair_law, model.law_param, state.pairs, state.n_pairs,
+                        model.sphere_ids, model.wall_ids, o.alert, htheta,
+                        c.i, c.j, c.sub, c.key, c.frame, c.gap, c.mu, c.ri, c.rj)
+        if k <= c.cap:
+            break
+        c.allocate(int(k * 1.3) + 64)
+    c.count = k
+    return rebuilt

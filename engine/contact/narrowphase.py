@@ -1,0 +1,184 @@
+"""Narrowphase: gaps, normals and local frames (n, t, s) per shape pair.
+
+Shapes: sphere–sphere, sphere–plane, sphere–cylinder (inner side wall and optional end
+caps).  The normal n points from the antagonist j to the candidate i (the direction in
+which a compressive impulse pushes i); t and s complete a right-handed orthonormal frame.
+
+A pair becomes an active contact when its gap g at the θ-predicted configuration is below
+the alert distance, or when the free relative velocity would close it within the step
+(g + θ h u_n < 0): nothing fast can tunnel through the alert band.
+"""
+from __future__ import annotations
+
+import numpy as np
+from numba import njit
+
+from ..model import CAP_BOTTOM, CAP_TOP, CYLINDER, PLANE
+
+
+@njit(cache=True)
+def tangent_frame(nx, ny, nz):
+    """Unit tangents (t, s) completing n into a right-handed frame (n, t, s = n × t)."""
+    ax = abs(nx)
+    ay = abs(ny)
+    az = abs(nz)
+    # t = n × e with e the coordinate axis least aligned with n
+    if ax <= ay and ax <= az:  # e = x
+        tx, ty, tz = 0.0, nz, -ny
+    elif ay <= az:  # e = y
+        tx, ty, tz = -nz, 0.0, nx
+    else:  # e = z
+        tx, ty, tz = ny, -nx, 0.0
+    inv = 1.0 / np.sqrt(tx * tx + ty * ty + tz * tz)
+    tx *= inv
+    ty *= inv
+    tz *= inv
+    sx = ny * tz - nz * ty
+    sy = nz * tx - nx * tz
+    sz = nx * ty - ny * tx
+    return tx, ty, tz, sx, sy, sz
+
+
+@njit(cache=True)
+def _emit(k, cap, i, j, sub, nb, nx, ny, nz, gap, mu, ri, rj,
+          o_i, o_j, o_sub, o_key, o_frame, o_gap, o_mu, o_ri, o_rj):
+    if k < cap:
+        o_i[k] = i
+        o_j[k] = j
+        o_sub[k] = sub
+        o_key[k] = (np.int64(i) * nb + j) * 4 + sub
+        tx, ty, tz, sx, sy, sz = tangent_frame(nx, ny, nz)
+        o_frame[k, 0] = nx
+        o_frame[k, 1] = ny
+        o_frame[k, 2] = nz
+        o_frame[k, 3] = tx
+        o_frame[k, 4] = ty
+        o_frame[k, 5] = tz
+        o_frame[k, 6] = sx
+        o_frame[k, 7] = sy
+        o_frame[k, 8] = sz
+        o_gap[k] = gap
+        o_mu[k] = mu
+        o_ri[k] = ri
+        o_rj[k] = rj
+
+
+@njit(cache=True)
+def _wall_gap(x, y, z, r, kind, px, py, pz, ax, ay, az, R, H, caps, sub):
+    """Gap and normal between a sphere (x, y, z, r) and surface ``sub`` of a wall.
+
+    Returns ``(valid, gap, nx, ny, nz)``.
+    """
+    dx = x - px
+    dy = y - py
+    dz = z - pz
+    if kind == PLANE:
+        if sub != 0:
+            return False, 0.0, 0.0, 0.0, 0.0
+        return True, dx * ax + dy * ay + dz * az - r, ax, ay, az
+    # cylinder: axial coordinate h in [0, H] from the base centre
+    h = dx * ax + dy * ay + dz * az
+    if sub == 0:
+        if h < 0.0 or h > H:
+            return False, 0.0, 0.0, 0.0, 0.0
+        rx = dx - h * ax
+        ry = dy - h * ay
+        rz = dz - h * az
+        rho = np.sqrt(rx * rx + ry * ry + rz * rz)
+        if rho > 1e-300:
+            nx = -rx / rho
+            ny = -ry / rho
+            nz = -rz / rho
+        else:  # on the axis: any radial direction
+            tx, ty, tz, sx, sy, sz = tangent_frame(ax, ay, az)
+            nx, ny, nz = tx, ty, tz
+        return True, R - rho - r, nx, ny, nz
+    if sub == 1:
+        if (caps & CAP_BOTTOM) == 0:
+            return False, 0.0, 0.0, 0.0, 0.0
+        return True, h - r, ax, ay, az
+    if (caps & CAP_TOP) == 0:
+        return False, 0.0, 0.0, 0.0, 0.0
+    return True, H - h - r, -ax, -ay, -az
+
+
+@njit(cache=True)
+def narrowphase(pos, vel6, radius, kind, group, axis, height, caps, pair_law, law_param,
+                pairs, n_pairs, sphere_ids, wall_ids, alert, htheta,
+                o_i, o_j, o_sub, o_key, o_frame, o_gap, o_mu, o_ri, o_rj):
+    """Active contacts at configuration ``pos`` with free velocities ``vel6``.
+
+    Parameters
+    ----------
+    pos : (nb, 3) [m] θ-predicted configuration q_i + (1-θ) h v_i.
+    vel6 : (nb, 6) free velocities [m/s, rad/s] (for the closing-in-the-step test).
+    radius, kind, group, axis, height, caps : per-body model arrays.
+    pair_law : (ng, ng) int16 ; law_param : (nlaw, 4) float64
+    pairs : (cap, 2) int32 candidate sphere pairs, the first ``n_pairs`` valid.
+    sphere_ids, wall_ids : int32 body ids.
+    alert : float [m] ; htheta : float [s] (θ h)
+    o_* : output buffers of equal capacity (see :class:`engine.state.ContactBuffers`).
+
+    Returns
+    -------
+    int
+        Number of active contacts; if above the capacity the caller grows and retries.
+    """
+    cap = o_i.shape[0]
+    nb = pos.shape[0]
+    k = 0
+    for m in range(n_pairs):
+        i = pairs[m, 0]
+        j = pairs[m, 1]
+        dx = pos[i, 0] - pos[j, 0]
+        dy = pos[i, 1] - pos[j, 1]
+        dz = pos[i, 2] - pos[j, 2]
+        dist = np.sqrt(dx * dx + dy * dy + dz * dz)
+        ri = radius[i]
+        rj = radius[j]
+        gap = dist - ri - rj
+        if gap > alert:
+            inv = 1.0 / dist
+            un = (dx * (vel6[i, 0] - vel6[j, 0]) + dy * (vel6[i, 1] - vel6[j, 1])
+                  + dz * (vel6[i, 2] - vel6[j, 2])) * inv
+            if gap + htheta * un > 0.0:
+                continue
+        if dist > 1e-300:
+            inv = 1.0 / dist
+            nx = dx * inv
+            ny = dy * inv
+            nz = dz * inv
+        else:
+            nx, ny, nz = 0.0, 0.0, 1.0
+        law = pair_law[group[i], group[j]]
+        _emit(k, cap, i, j, 0, nb, nx, ny, nz, gap, law_param[law, 0], ri, rj,
+              o_i, o_j, o_sub, o_key, o_frame, o_gap, o_mu, o_ri, o_rj)
+        k += 1
+    for a in range(sphere_ids.shape[0]):
+        i = sphere_ids[a]
+        x = pos[i, 0]
+        y = pos[i, 1]
+        z = pos[i, 2]
+        r = radius[i]
+        gi = group[i]
+        for b in range(wall_ids.shape[0]):
+            w = wall_ids[b]
+            law = pair_law[gi, group[w]]
+            if law < 0:
+                continue
+            nsub = 1 if kind[w] == PLANE else 3
+            for sub in range(nsub):
+                valid, gap, nx, ny, nz = _wall_gap(x, y, z, r, kind[w], pos[w, 0], pos[w, 1],
+                                                   pos[w, 2], axis[w, 0], axis[w, 1], axis[w, 2],
+                                                   radius[w], height[w], caps[w], sub)
+                if not valid:
+                    continue
+                if gap > alert:
+                    un = (nx * (vel6[i, 0] - vel6[w, 0]) + ny * (vel6[i, 1] - vel6[w, 1])
+                          + nz * (vel6[i, 2] - vel6[w, 2]))
+                    if gap + htheta * un > 0.0:
+                        continue
+                _emit(k, cap, i, w, sub, nb, nx, ny, nz, gap, law_param[law, 0], r, 0.0,
+                      o_i, o_j, o_sub, o_key, o_frame, o_gap, o_mu, o_ri, o_rj)
+                k += 1
+    return k

@@ -1,0 +1,190 @@
+"""The static part of a simulation: counts, read-only per-body arrays and solver options.
+
+A :class:`Model` is produced by :meth:`engine.Scene.compile` and never changes during a run
+(MuJoCo's ``MjModel``).  Arrays are C-contiguous, read-only and named
+``entity_attribute``; every unit is given in brackets.  Kernels receive these arrays, never
+the dataclass itself.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+import numpy as np
+from pydantic import BaseModel, ConfigDict, Field
+
+#: ``body_kind`` codes.
+SPHERE, PLANE, CYLINDER = 0, 1, 2
+KIND_NAMES = {SPHERE: "sphere", PLANE: "plane", CYLINDER: "cylinder"}
+
+#: ``body_dof`` codes: how a body's translation is determined.
+FREE = 0  #: integrated from forces and impulses (Eq. 3-4)
+IMPOSED = 1  #: velocity imposed (fixed bodies: imposed zero); no rotation
+LINE = 2  #: free along one direction ``body_line`` only (force- or pressure-driven walls)
+
+#: ``body_caps`` bits for cylinders.
+CAP_BOTTOM, CAP_TOP = 1, 2
+
+#: Columns of :attr:`Model.body_dyn`, the packed per-body row the NLGS kernel reads.
+DYN_INV_MASS, DYN_INV_INERTIA, DYN_RADIUS, DYN_LINE, DYN_LX, DYN_LY, DYN_LZ = range(7)
+
+
+class Options(BaseModel):
+    """Time-stepping and solver options, validated (a bad value raises ``ValueError``
+    naming the field and its allowed range).
+
+    Attributes
+    ----------
+    dt : float
+        Time step h [s], > 0.
+    theta : float
+        θ of the θ-method (Eq. 4), in [0.5, 1].
+    tol : float
+        NLGS tolerance on the "Quad" norm [-], > 0 (LMGC90's usual value: 1e-4).
+    max_iter : int
+        Maximum NLGS sweeps per step, >= 1.
+    relax : float
+        Relaxation ω of the NLGS update p ← ω p_new + (1-ω) p_old, in (0, 1].
+    alert : float
+        Alert distance [m], >= 0: a pair is a contact when its gap at the θ-predicted
+        configuration is below it (or is predicted to close within the step).
+    skin : float
+        Verlet skin [m], > 0: the candidate-pair list holds pairs closer than alert + skin
+        and is rebuilt when a body has moved more than skin/2 since the last build.
+    gravity : tuple of 3 floats
+        Gravity [m/s²] applied to free spheres.
+    """
+
+    model_config = ConfigDict(frozen=True, extra="forbid")
+
+    dt: float = Field(gt=0.0, allow_inf_nan=False)
+    theta: float = Field(0.5, ge=0.5, le=1.0)
+    tol: float = Field(1e-4, gt=0.0, allow_inf_nan=False)
+    max_iter: int = Field(1000, ge=1)
+    relax: float = Field(1.0, gt=0.0, le=1.0)
+    alert: float = Field(ge=0.0, allow_inf_nan=False)
+    skin: float = Field(gt=0.0, allow_inf_nan=False)
+    gravity: tuple[float, float, float] = (0.0, 0.0, -9.81)
+
+
+@dataclass(frozen=True)
+class Drive:
+    """An imposed velocity, force or pressure on one body (see :meth:`Scene.drive`).
+
+    ``kind`` is ``"velocity"``, ``"force"`` or ``"pressure"``; ``value`` is a (3,) array
+    [m/s] or [N], a float [Pa], or a callable of time ``t`` [s] returning that;
+    ``area`` [m²] (pressure only) is a float or a callable ``(model, state) -> float``.
+    """
+
+    body: int
+    kind: str
+    value: object
+    area: object = None
+
+    def at(self, t: float):
+        """The drive value at time ``t`` [s]."""
+        return self.value(t) if callable(self.value) else self.value
+
+
+def _frozen(a: np.ndarray) -> np.ndarray:
+    a = np.ascontiguousarray(a)
+    a.setflags(write=False)
+    return a
+
+
+@dataclass(frozen=True)
+class Model:
+    """Static description of a scene.
+
+    Attributes (nb bodies, ng groups, nlaw laws)
+    ---------------------------------------------
+    body_kind : (nb,) int8
+        SPHERE, PLANE or CYLINDER.
+    body_group : (nb,) int16
+        Index into ``group_names``.
+    body_radius : (nb,) float64 [m]
+        Sphere or cylinder radius; 0 for planes.
+    body_mass, body_inertia : (nb,) float64 [kg], [kg·m²]
+        Sphere mass and moment of inertia (2/5 m r²); a driven wall's own mass; ``inf``
+        for bodies that never move under forces.
+    body_axis : (nb, 3) float64 [-]
+        Unit normal of a plane (pointing to the side where spheres live) or axis of a
+        cylinder; zero for spheres.
+    body_height : (nb,) float64 [m]
+        Cylinder height along its axis; 0 otherwise.
+    body_caps : (nb,) int8
+        Cylinder end caps present (bits CAP_BOTTOM, CAP_TOP).
+    body_dof : (nb,) int8
+        FREE, IMPOSED or LINE.
+    body_line : (nb, 3) float64 [-]
+        Direction of motion of a LINE body; zero otherwise.
+    body_dyn : (nb, 8) float64
+        Packed row read by the NLGS kernel: inverse mass [1/kg], inverse inertia
+        [1/(kg·m²)] (0 for IMPOSED bodies and walls), radius [m], LINE flag, line direction.
+    sphere_ids, wall_ids : int32 arrays
+        Body ids of spheres and of walls (planes and cylinders).
+    group_names : tuple of str
+    pair_law : (ng, ng) int16
+        The see table: law index for each pair of groups, -1 = no interaction.
+    law_code : (nlaw,) int16 ; law_param : (nlaw, 4) float64
+        Law codes (:mod:`engine.laws`) and their parameter rows.
+    laws : tuple of Law
+        The law objects, index-aligned with ``law_code``.
+    drives : tuple of Drive
+    options : Options
+    """
+
+    body_kind: np.ndarray
+    body_group: np.ndarray
+    body_radius: np.ndarray
+    body_mass: np.ndarray
+    body_inertia: np.ndarray
+    body_axis: np.ndarray
+    body_height: np.ndarray
+    body_caps: np.ndarray
+    body_dof: np.ndarray
+    body_line: np.ndarray
+    body_dyn: np.ndarray
+    sphere_ids: np.ndarray
+    wall_ids: np.ndarray
+    group_names: tuple
+    pair_law: np.ndarray
+    law_code: np.ndarray
+    law_param: np.ndarray
+    laws: tuple
+    drives: tuple
+    options: Options
+
+    def __post_init__(self):
+        for name, value in self.__dict__.items():
+            if isinstance(value, np.ndarray):
+                object.__setattr__(self, name, _frozen(value))
+
+    @property
+    def n_bodies(self) -> int:
+        return int(self.body_kind.shape[0])
+
+    @property
+    def n_spheres(self) -> int:
+        return int(self.sphere_ids.shape[0])
+
+    @property
+    def n_walls(self) -> int:
+        return int(self.wall_ids.shape[0])
+
+    def group_id(self, name: str) -> int:
+        """Index of group ``name``; ``ValueError`` if unknown."""
+        try:
+            return self.group_names.index(name)
+        except ValueError:
+            raise ValueError(f"unknown group {name!r}; groups are {list(self.group_names)}") from None
+
+    def bodies_in(self, group: str) -> np.ndarray:
+        """Body ids of a group."""
+        return np.flatnonzero(self.body_group == self.group_id(group)).astype(np.int32)
+
+    def with_options(self, **changes) -> "Model":
+        """A copy with some options changed (validated), e.g. ``model.with_options(dt=1e-5)``."""
+        from dataclasses import replace
+
+        opts = Options(**{**self.options.model_dump(), **changes})
+        return replace(self, options=opts)
+

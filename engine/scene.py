@@ -1,0 +1,476 @@
+"""Scene: the mutable builder that compiles into a static Model and a mutable State.
+
+Every input check lives here, so that a user meets a ``ValueError`` naming the field and
+its allowed range (or the offending ids), never a numba traceback.
+"""
+from __future__ import annotations
+
+import numbers
+
+import numpy as np
+
+from . import laws as _laws
+from .contact.broadphase import build_pairs
+from .model import (CAP_BOTTOM, CAP_TOP, CYLINDER, FREE, IMPOSED, LINE, PLANE, SPHERE, Drive,
+                    Model, Options)
+from .state import State
+
+#: Overlap allowed at compile time, as a fraction of the smaller radius.
+OVERLAP_TOLERANCE = 0.01
+
+
+def _finite_array(value, name: str, shape_tail: tuple, dtype=float) -> np.ndarray:
+    a = np.asarray(value, dtype=dtype)
+    if a.ndim != 1 + len(shape_tail) or a.shape[1:] != shape_tail:
+        want = "(n, " + ", ".join(map(str, shape_tail)) + ")" if shape_tail else "(n,)"
+        raise ValueError(f"{name} must have shape {want}, got {a.shape}")
+    bad = ~np.isfinite(a.reshape(a.shape[0], -1)).all(axis=1)
+    if bad.any():
+        raise ValueError(f"{name} must be finite; non-finite rows at ids {np.flatnonzero(bad)[:10].tolist()}")
+    return a
+
+
+def _vec3(value, name: str, unit: bool = False) -> np.ndarray:
+    a = np.asarray(value, dtype=float)
+    if a.shape != (3,) or not np.all(np.isfinite(a)):
+        raise ValueError(f"{name} must be 3 finite numbers, got {value!r}")
+    if unit:
+        n = np.linalg.norm(a)
+        if n == 0.0:
+            raise ValueError(f"{name} must be a non-zero vector, got {value!r}")
+        a = a / n
+    return a
+
+
+def _positive(value, name: str, unit: str) -> float:
+    try:
+        v = float(value)
+    except (TypeError, ValueError):
+        raise ValueError(f"{name} must be a number > 0 {unit}, got {value!r}") from None
+    if not np.isfinite(v) or v <= 0.0:
+        raise ValueError(f"{name} must be finite and > 0 {unit}, got {value!r}")
+    return v
+
+
+class Scene:
+    """Builder of a simulation: bodies, groups, laws (the see table), fixities and drives.
+
+    Parameters
+    ----------
+    gravity : 3 floats [m/s²]
+        Gravity applied to free spheres.
+
+    Examples
+    --------
+    >>> s = Scene()
+    >>> floor = s.add_plane(point=(0, 0, 0), normal=(0, 0, 1), group="wall")
+    >>> ball = s.add_spheres([[0, 0, 1e-3]], 1e-3, density=2650.0, group="sand")
+    >>> s.interact("sand", "wall", laws.Coulomb(mu=0.5))
+    >>> model, state = s.compile(dt=1e-4)
+    """
+
+    def __init__(self, gravity=(0.0, 0.0, -9.81)):
+        self.gravity = tuple(_vec3(gravity, "gravity"))
+        self._kind: list[int] = []
+        self._group: list[int] = []
+        self._radius: list[float] = []
+        self._mass: list[float] = []
+        self._axis: list[np.ndarray] = []
+        self._height: list[float] = []
+        self._caps: list[int] = []
+        self._pos: list[np.ndarray] = []
+        self._vel: list[np.ndarray] = []
+        self._spin: list[np.ndarray] = []
+        self._groups: dict[str, int] = {}
+        self._pairs: dict[tuple[str, str], object] = {}
+        self._fixed: set[int] = set()
+        self._drives: dict[int, Drive] = {}
+        self._drive_mass: dict[int, float] = {}
+
+    # -- bodies ------------------------------------------------------------------------------
+    def _group_index(self, group) -> int:
+        if not isinstance(group, str) or not group:
+            raise ValueError(f"group must be a non-empty string, got {group!r}")
+        return self._groups.setdefault(group, len(self._groups))
+
+    @property
+    def n_bodies(self) -> int:
+        return len(self._kind)
+
+    def add_spheres(self, centers, radii, density, group: str = "sand", velocities=None,
+                    spins=None) -> np.ndarray:
+        """Add rigid spheres.
+
+        Parameters
+        ----------
+        centers : (n, 3) [m]
+        radii : float or (n,) [m], > 0
+        density : float [kg/m³], > 0
+        group : str
+        velocities, spins : (n, 3) [m/s], [rad/s], optional initial values
+
+        Returns
+        -------
+        (n,) int32 body ids.
+        """
+        c = _finite_array(centers, "centers", (3,))
+        n = c.shape[0]
+        r = np.broadcast_to(np.asarray(radii, dtype=float), (n,)) if np.ndim(radii) == 0 else \
+            _finite_array(radii, "radii", ())
+        if r.shape != (n,):
+            raise ValueError(f"radii must be a scalar or have shape ({n},), got {r.shape}")
+        bad = np.flatnonzero(~(np.isfinite(r) & (r > 0.0)))
+        if bad.size:
+            raise ValueError(f"radii must be finite and > 0 m; bad values at ids {bad[:10].tolist()}")
+        rho = _positive(density, "density", "[kg/m³]")
+        v = np.zeros((n, 3)) if velocities is None else _finite_array(velocities, "velocities", (3,))
+        w = np.zeros((n, 3)) if spins is None else _finite_array(spins, "spins", (3,))
+        if v.shape[0] != n or w.shape[0] != n:
+            raise ValueError(f"velocities and spins must have shape ({n}, 3)")
+        g = self._group_index(group)
+        first = self.n_bodies
+        mass = rho * 4.0 / 3.0 * np.pi * r ** 3
+        for k in range(n):
+            self._kind.append(SPHERE)
+            self._group.append(g)
+            self._radius.append(float(r[k]))
+            self._mass.append(float(mass[k]))
+            self._axis.append(np.zeros(3))
+            self._height.append(0.0)
+            self._caps.append(0)
+            self._pos.append(c[k].copy())
+            self._vel.append(v[k].copy())
+            self._spin.append(w[k].copy())
+        return np.arange(first, first + n, dtype=np.int32)
+
+    def _add_wall(self, kind, point, axis, radius, height, caps, group) -> int:
+        g = self._group_index(group)
+        self._kind.append(kind)
+        self._group.append(g)
+        self._radius.append(radius)
+        self._mass.append(np.inf)
+        self._axis.append(axis)
+        self._height.append(height)
+        self._caps.append(caps)
+        self._pos.append(point)
+        self._vel.append(np.zeros(3))
+        self._spin.append(np.zeros(3))
+        return self.n_bodies - 1
+
+    def add_plane(self, point=(0.0, 0.0, 0.0), normal=(0.0, 0.0, 1.0), group: str = "wall") -> int:
+        """Add an infinite rigid plane; spheres live on the side its ``normal`` points to.
+
+        Planes are fixed unless driven (:meth:`drive`).  Returns the body id.
+        """
+        return self._add_wall(PLANE, _vec3(point, "point"), _vec3(normal, "normal", unit=True),
+                              0.0, 0.0, 0, group)
+
+    def add_cylinder(self, center=(0.0, 0.0, 0.0), axis=(0.0, 0.0, 1.0), radius=1.0, height=1.0,
+                     group: str = "wall", bottom: bool = True, top: bool = False) -> int:
+        """Add a rigid cylindrical container; spheres touch its inner surface.
+
+        Parameters
+        ----------
+        center : 3 floats [m]
+            Centre of the **base** (bottom end); the cylinder spans ``center`` to
+            ``center + height * axis``.
+        axis : 3 floats
+            Direction from the bottom to the top end (normalised).
+        radius, height : float [m], > 0
+        bottom, top : bool
+            Whether the bottom and top end caps are closed (flat discs).
+
+        Returns the body id.  The side wall acts on spheres whose centre lies between the
+        two ends (no rim contact).
+        """
+        caps = (CAP_BOTTOM if bottom else 0) | (CAP_TOP if top else 0)
+        return self._add_wall(CYLINDER, _vec3(center, "center"), _vec3(axis, "axis", unit=True),
+                              _positive(radius, "radius", "[m]"), _positive(height, "height", "[m]"),
+                              caps, group)
+
+    def add_box(self, lo, hi, group: str = "wall", top: bool = False) -> np.ndarray:
+        """Add the floor and four side walls (and the lid if ``top``) of the box [lo, hi].
+
+        Returns the plane ids in the order floor, x-, x+, y-, y+ (, lid).
+        """
+        lo = _vec3(lo, "lo")
+        hi = _vec3(hi, "hi")
+        if np.any(hi <= lo):
+            raise ValueError(f"box needs hi > lo on every axis, got lo={lo.tolist()}, hi={hi.tolist()}")
+        ids = [self.add_plane(lo, (0, 0, 1), group), self.add_plane(lo, (1, 0, 0), group),
+               self.add_plane(hi, (-1, 0, 0), group), self.add_plane(lo, (0, 1, 0), group),
+               self.add_plane(hi, (0, -1, 0), group)]
+        if top:
+            ids.append(self.add_plane(hi, (0, 0, -1), group))
+        return np.asarray(ids, dtype=np.int32)
+
+    # -- interactions, fixities, drives ---------------------------------------------------
+    def interact(self, group_a: str, group_b: str, law) -> None:
+        """Declare the law between two groups (the see table); ``law=None`` = no interaction.
+
+        Every pair of groups that can touch needs a declaration (checked at compile time).
+        """
+        for g in (group_a, group_b):
+            if not isinstance(g, str) or not g:
+                raise ValueError(f"group names must be non-empty strings, got {g!r}")
+        if law is not None and not isinstance(law, _laws.Law):
+            raise ValueError(f"law must be an engine.laws law or None, got {law!r}")
+        self._pairs[tuple(sorted((group_a, group_b)))] = law
+
+    def _check_ids(self, ids, name: str = "ids") -> np.ndarray:
+        a = np.atleast_1d(np.asarray(ids))
+        if a.size and not np.issubdtype(a.dtype, np.integer):
+            raise ValueError(f"{name} must be integer body ids, got dtype {a.dtype}")
+        bad = a[(a < 0) | (a >= self.n_bodies)]
+        if bad.size:
+            raise ValueError(f"{name}: unknown body ids {bad[:10].tolist()} "
+                             f"(valid: 0..{self.n_bodies - 1})")
+        return a.astype(np.int64)
+
+    def fix(self, ids) -> None:
+        """Impose a zero velocity (and spin) on bodies ``ids``."""
+        for b in self._check_ids(ids).tolist():
+            if b in self._drives:
+                raise ValueError(f"body {b} is driven; it cannot also be fixed")
+            self._fixed.add(b)
+
+    def drive(self, body: int, *, velocity=None, force=None, pressure=None, mass=None,
+              area=None) -> None:
+        """Drive one body: exactly one of ``velocity``, ``force`` or ``pressure``.
+
+        Parameters
+        ----------
+        body : int
+        velocity : (3,) [m/s] or callable t -> (3,)
+            Imposed translational velocity (the body does not rotate).
+        force : (3,) [N] or callable t -> (3,)
+            Imposed external force.  On a wall, the wall moves along the force's line of
+            action with mass ``mass``.
+        pressure : float [Pa] or callable t -> float
+            Planes only: force p · A · n along the plane normal (towards the spheres); the
+            plane moves along its normal with mass ``mass``.
+        mass : float [kg], > 0
+            Required for a force- or pressure-driven wall.
+        area : float [m²] or callable (model, state) -> float
+            Current wall area, required with ``pressure``.
+        """
+        b = int(self._check_ids(body, "body")[0])
+        given = [k for k, v in (("velocity", velocity), ("force", force), ("pressure", pressure))
+                 if v is not None]
+        if len(given) != 1:
+            raise ValueError(f"drive needs exactly one of velocity, force or pressure; got {given}")
+        kind = given[0]
+        value = {"velocity": velocity, "force": force, "pressure": pressure}[kind]
+        if b in self._fixed:
+            raise ValueError(f"body {b} is fixed; it cannot also be driven")
+        if b in self._drives:
+            raise ValueError(f"body {b} already has a {self._drives[b].kind} drive")
+        is_wall = self._kind[b] != SPHERE
+        if not callable(value):
+            if kind == "pressure":
+                if not isinstance(value, numbers.Real) or not np.isfinite(value):
+                    raise ValueError(f"pressure must be a finite number [Pa], got {value!r}")
+                value = float(value)
+            else:
+                value = _vec3(value, kind)
+        if kind == "pressure":
+            if self._kind[b] != PLANE:
+                raise ValueError(f"pressure drives apply to planes; body {b} is a "
+                                 f"{['sphere', 'plane', 'cylinder'][self._kind[b]]}")
+            if area is None:
+                raise ValueError("pressure drive needs area= [m²] (a float or a callable "
+                                 "(model, state) -> float)")
+            if not callable(area):
+                area = _positive(area, "area", "[m²]")
+        elif area is not None:
+            raise ValueError("area= is only meaningful with a pressure drive")
+        if kind in ("force", "pressure") and is_wall:
+            self._drive_mass[b] = _positive(mass, "mass", "[kg] (a force- or pressure-driven wall "
+                                            "needs its own mass)")
+        elif mass is not None:
+            raise ValueError("mass= is only meaningful for a force- or pressure-driven wall")
+        if kind == "force" and is_wall and not callable(value) and not np.any(value):
+            raise ValueError("force on a wall must be non-zero (it sets the wall's line of motion)")
+        self._drives[b] = Drive(body=b, kind=kind, value=value, area=area)
+
+    # -- compile --------------------------------------------------------------------------
+    def _see_table(self, dof):
+        names = list(self._groups)
+        ng = len(names)
+        declared = set(name for pair in self._pairs for name in pair)
+        unknown = sorted(declared - set(names))
+        if unknown:
+            raise ValueError(f"interact: unknown group names {unknown}; groups are {names}")
+        kind = np.asarray(self._kind, dtype=np.int8)
+        group = np.asarray(self._group, dtype=np.int16)
+        law_list: list = []
+        pair_law = -np.ones((ng, ng), np.int16)
+        for (a, b), law in self._pairs.items():
+            if law is None:
+                continue
+            if law.code != _laws.COULOMB:
+                raise ValueError(f"interact({a!r}, {b!r}): {type(law).__name__} is a wire law; "
+                                 "wire laws go on Scene.add_wire links, contacts take Coulomb")
+            if law not in law_list:
+                law_list.append(law)
+            ia, ib = self._groups[a], self._groups[b]
+            pair_law[ia, ib] = pair_law[ib, ia] = law_list.index(law)
+        # which pairs of groups can touch: spheres with spheres, spheres with walls, when
+        # at least one side can move
+        spheres = kind == SPHERE
+        has_sphere = np.zeros(ng, bool)
+        has_wall = np.zeros(ng, bool)
+        mobile = np.zeros(ng, bool)
+        for g in range(ng):
+            in_g = group == g
+            has_sphere[g] = np.any(in_g & spheres)
+            has_wall[g] = np.any(in_g & ~spheres)
+            mobile[g] = np.any(in_g & spheres & (dof != IMPOSED))
+        missing = []
+        for a in range(ng):
+            for b in range(a, ng):
+                key = tuple(sorted((names[a], names[b])))
+                if key in self._pairs:
+                    continue
+                both_sph = has_sphere[a] and has_sphere[b] and (a != b or np.sum((group == a) & spheres) > 1)
+                sph_wall = (has_sphere[a] and has_wall[b] and mobile[a]) or \
+                           (has_sphere[b] and has_wall[a] and mobile[b])
+                if (both_sph and (mobile[a] or mobile[b])) or sph_wall:
+                    missing.append(key)
+        if missing:
+            raise ValueError("pairs of groups that can touch have no declared law: "
+                             + ", ".join(f"({a!r}, {b!r})" for a, b in missing)
+                             + "; declare each with Scene.interact(a, b, law) or law=None")
+        law_code = np.asarray([l.code for l in law_list], np.int16).reshape(-1)
+        law_param = np.asarray([l.params() for l in law_list], float).reshape(-1, _laws.N_PARAM)
+        if law_param.shape[0] == 0:  # kernels index law_param[law] only for law >= 0
+            law_param = np.zeros((1, _laws.N_PARAM))
+        return names, pair_law, law_code, law_param, tuple(law_list)
+
+    def _check_overlaps(self, pos, radius, kind, axis, height, caps, sphere_ids) -> None:
+        if sphere_ids.size >= 2:
+            allpairs = np.zeros((1, 1), np.int16)
+            grp = np.zeros(pos.shape[0], np.int16)
+            out = np.zeros((4 * sphere_ids.size + 64, 2), np.int32)
+            while True:
+                n = build_pairs(pos, radius, grp, allpairs, sphere_ids.astype(np.int32), 0.0, out)
+                if n <= out.shape[0]:
+                    break
+                out = np.zeros((int(1.3 * n) + 64, 2), np.int32)
+            p = out[:n]
+            d = np.linalg.norm(pos[p[:, 0]] - pos[p[:, 1]], axis=1)
+            overlap = radius[p[:, 0]] + radius[p[:, 1]] - d
+            bad = overlap > OVERLAP_TOLERANCE * np.minimum(radius[p[:, 0]], radius[p[:, 1]])
+            if bad.any():
+                worst = p[bad][:10].tolist()
+                raise ValueError(f"{int(bad.sum())} pairs of spheres overlap by more than "
+                                 f"{OVERLAP_TOLERANCE:.0%} of the smaller radius, e.g. ids {worst}")
+        for w in np.flatnonzero(kind != SPHERE):
+            x = pos[sphere_ids] - pos[w]
+            r = radius[sphere_ids]
+            a = axis[w]
+            h = x @ a
+            if kind[w] == PLANE:
+                gaps = [h - r]
+            else:
+                inside = (h >= 0) & (h <= height[w])
+                rho = np.linalg.norm(x - h[:, None] * a, axis=1)
+                gaps = [np.where(inside, radius[w] - rho - r, np.inf)]
+                if caps[w] & CAP_BOTTOM:
+                    gaps.append(np.where(rho < radius[w], h - r, np.inf))
+                if caps[w] & CAP_TOP:
+                    gaps.append(np.where(rho < radius[w], height[w] - h - r, np.inf))
+            for g in gaps:
+                bad = -g > OVERLAP_TOLERANCE * r
+                if bad.any():
+                    raise ValueError(f"{int(bad.sum())} spheres penetrate wall {w} by more than "
+                                     f"{OVERLAP_TOLERANCE:.0%} of their radius, e.g. ids "
+                                     f"{sphere_ids[bad][:10].tolist()}")
+
+    def compile(self, dt: float, theta: float = 0.5, tol: float = 1e-4, max_iter: int = 1000,
+                relax: float = 1.0, alert: float | None = None, skin: float | None = None):
+        """Freeze the scene into a :class:`Model` and its initial :class:`State`.
+
+        Parameters
+        ----------
+        dt : float [s], > 0
+        theta : float in [0.5, 1]
+        tol : float > 0 ; max_iter : int >= 1 ; relax : float in (0, 1]
+            NLGS tolerance (Quad norm), sweep cap and relaxation.
+        alert, skin : float [m]
+            Alert distance (default 0.1 × smallest sphere radius) and Verlet skin (default
+            0.5 × smallest radius).
+
+        Raises
+        ------
+        ValueError
+            Bad option (field and range named), unknown group names, pairs of groups that
+            can touch with no declared law, spheres overlapping by more than 1 % of the
+            smaller radius (ids named), spheres penetrating walls.
+        """
+        nb = self.n_bodies
+        if nb == 0:
+            raise ValueError("the scene has no bodies")
+        kind = np.asarray(self._kind, np.int8)
+        radius = np.asarray(self._radius, float)
+        sphere_ids = np.flatnonzero(kind == SPHERE).astype(np.int32)
+        rmin = float(radius[sphere_ids].min()) if sphere_ids.size else 1e-3
+        opts = Options(dt=dt, theta=theta, tol=tol, max_iter=max_iter, relax=relax,
+                       alert=0.1 * rmin if alert is None else alert,
+                       skin=0.5 * rmin if skin is None else skin, gravity=self.gravity)
+
+        dof = np.where(kind == SPHERE, FREE, IMPOSED).astype(np.int8)
+        line = np.zeros((nb, 3))
+        mass = np.asarray(self._mass, float).copy()
+        axis = np.asarray(self._axis, float).reshape(nb, 3)
+        for b in self._fixed:
+            dof[b] = IMPOSED
+        vel = np.asarray(self._vel, float).reshape(nb, 3).copy()
+        spin = np.asarray(self._spin, float).reshape(nb, 3).copy()
+        for b, d in self._drives.items():
+            if d.kind == "velocity":
+                dof[b] = IMPOSED
+                vel[b] = _vec3(d.at(0.0), f"velocity drive on body {b}")
+                spin[b] = 0.0
+            elif kind[b] != SPHERE:
+                dof[b] = LINE
+                mass[b] = self._drive_mass[b]
+                if d.kind == "pressure":
+                    line[b] = axis[b]
+                else:
+                    f0 = _vec3(d.at(0.0), f"force drive on body {b}")
+                    if not np.any(f0):
+                        raise ValueError(f"force drive on wall {b} is zero at t=0; it sets the line of motion")
+                    line[b] = f0 / np.linalg.norm(f0)
+        for b in self._fixed:
+            vel[b] = 0.0
+            spin[b] = 0.0
+
+        names, pair_law, law_code, law_param, law_objs = self._see_table(dof)
+        pos = np.asarray(self._pos, float).reshape(nb, 3)
+        height = np.asarray(self._height, float)
+        caps = np.asarray(self._caps, np.int8)
+        self._check_overlaps(pos, radius, kind, axis, height, caps, sphere_ids)
+
+        inertia = np.full(nb, np.inf)
+        inertia[sphere_ids] = 0.4 * mass[sphere_ids] * radius[sphere_ids] ** 2
+        body_dyn = np.zeros((nb, 8))
+        movable = dof != IMPOSED
+        body_dyn[:, 0] = np.where(movable, 1.0 / mass, 0.0)
+        body_dyn[:, 1] = np.where(movable & (kind == SPHERE), 1.0 / inertia, 0.0)
+        body_dyn[:, 2] = np.where(kind == SPHERE, radius, 0.0)
+        body_dyn[:, 3] = (dof == LINE).astype(float)
+        body_dyn[:, 4:7] = line
+        model = Model(
+            body_kind=kind, body_group=np.asarray(self._group, np.int16), body_radius=radius,
+            body_mass=mass, body_inertia=inertia, body_axis=axis, body_height=height,
+            body_caps=caps, body_dof=dof, body_line=line, body_dyn=body_dyn,
+            sphere_ids=sphere_ids, wall_ids=np.flatnonzero(kind != SPHERE).astype(np.int32),
+            group_names=tuple(names), pair_law=pair_law, law_code=law_code, law_param=law_param,
+            laws=law_objs, drives=tuple(self._drives[b] for b in sorted(self._drives)),
+            options=opts)
+        state = State(position=pos.copy(), vel6=np.ascontiguousarray(np.hstack([vel, spin])))
+        return model, state
+
+
+__all__ = ["Scene", "OVERLAP_TOLERANCE"]

@@ -1,0 +1,50 @@
+"""Local solvers: one small function per law (jax-md style), called by the NLGS sweep.
+
+Each takes the local free velocity of its contact (the relative velocity that the other
+contacts and the external forces give, without its own impulse) and the diagonal of its
+Delassus block, and returns the impulse that satisfies the law exactly.
+"""
+from __future__ import annotations
+
+import numpy as np
+from numba import njit
+
+
+@njit(cache=True, inline="always")
+def coulomb(fn, ft, fs, wn, wt, mu):
+    """Signorini + 3D Coulomb local problem with a diagonal Delassus block.
+
+    Solves, for the impulse p = (p_n, p_t, p_s) [N·s] and the end-of-step local velocity
+    u = f + W p with W = diag(wn, wt, wt) [1/kg] (the blocks of Eq. 5 for spheres: n is
+    decoupled from t, s because the lever arms are parallel to n):
+
+    * Signorini (Eq. 6 with the gap term folded into ``fn``): 0 <= u_n ⊥ p_n >= 0;
+    * Coulomb: ‖p_T‖ <= μ p_n, u_T = 0 if ‖p_T‖ < μ p_n, else p_T = -μ p_n u_T/‖u_T‖.
+
+    Because W is diagonal with equal tangential entries, the exact solution is the
+    De Saxcé projection with ρ = W⁻¹: p_n = max(0, -fn/wn), p_T = proj_{disk μ p_n}(-f_T/wt).
+
+    Parameters
+    ----------
+    fn, ft, fs : float [m/s]
+        Local free velocity (normal part includes max(g, 0)/(θh)).
+    wn, wt : float [1/kg]
+        Normal and tangential diagonal of W_αα.
+    mu : float [-]
+
+    Returns
+    -------
+    (pn, pt, ps) : floats [N·s]
+    """
+    if fn >= 0.0:
+        return 0.0, 0.0, 0.0
+    pn = -fn / wn
+    pt = -ft / wt
+    ps = -fs / wt
+    lim = mu * pn
+    nt2 = pt * pt + ps * ps
+    if nt2 > lim * lim:
+        scale = lim / np.sqrt(nt2)
+        pt *= scale
+        ps *= scale
+    return pn, pt, ps

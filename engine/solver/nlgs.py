@@ -1,0 +1,240 @@
+"""Nonlinear Gauss–Seidel (NLGS) on the contacts of one step (Eq. 5).
+
+For each contact α in turn, the sweep computes the current local velocity from the body
+velocities, removes its own contribution W_αα p_α to get the local free velocity, calls the
+local solver of its law (:mod:`engine.solver.local`) and applies the impulse change to the
+two bodies at once (so the next contact sees it: Gauss–Seidel).  Wire links join the same
+sweep, after the contacts, in the wire issue.
+
+Convergence ("Quad" norm, as LMGC90's ``Quad`` check): after each sweep,
+
+    residual = sqrt( Σ_α ‖W_αα Δp_α‖² / Σ_α ‖W_αα p_α‖² ),
+
+the root-mean-square change of local velocity produced by the sweep relative to the
+root-mean-square local velocity that the impulses carry.  The step has converged when
+``residual < tol``.  A sweep that leaves every impulse at zero has residual 0.
+"""
+from __future__ import annotations
+
+import numpy as np
+from numba import njit
+
+from ..model import DYN_INV_INERTIA, DYN_INV_MASS, DYN_LINE, DYN_LX, DYN_LY, DYN_LZ
+from .local import coulomb
+
+
+@njit(cache=True)
+def _apply(i, j, ri, rj, px, py, pz, pt, ps, tx, ty, tz, sx, sy, sz, body_dyn, vel6):
+    """Add the impulse (global P, local tangential pt, ps) to body i and -P to body j."""
+    # rotation: ω_i += I_i⁻¹ (a_i × P), a_i = -r_i n  ->  -r_i/I_i (pt s - ps t); same sign on j
+    qx = pt * sx - ps * tx
+    qy = pt * sy - ps * ty
+    qz = pt * sz - ps * tz
+    im = body_dyn[i, DYN_INV_MASS]
+    ci = -ri * body_dyn[i, DYN_INV_INERTIA]
+    vel6[i, 0] += im * px
+    vel6[i, 1] += im * py
+    vel6[i, 2] += im * pz
+    vel6[i, 3] += ci * qx
+    vel6[i, 4] += ci * qy
+    vel6[i, 5] += ci * qz
+    im = body_dyn[j, DYN_INV_MASS]
+    if body_dyn[j, DYN_LINE] != 0.0:
+        lx = body_dyn[j, DYN_LX]
+        ly = body_dyn[j, DYN_LY]
+        lz = body_dyn[j, DYN_LZ]
+        d = im * (px * lx + py * ly + pz * lz)
+        vel6[j, 0] -= d * lx
+        vel6[j, 1] -= d * ly
+        vel6[j, 2] -= d * lz
+    else:
+        vel6[j, 0] -= im * px
+        vel6[j, 1] -= im * py
+        vel6[j, 2] -= im * pz
+    cj = -rj * body_dyn[j, DYN_INV_INERTIA]
+    vel6[j, 3] += cj * qx
+    vel6[j, 4] += cj * qy
+    vel6[j, 5] += cj * qz
+
+
+@njit(cache=True)
+def _line_factor(body_dyn, b, ex, ey, ez):
+    """Share of a unit impulse along e that moves body b (1, or (e·l)² for LINE bodies)."""
+    if body_dyn[b, DYN_LINE] != 0.0:
+        d = ex * body_dyn[b, DYN_LX] + ey * body_dyn[b, DYN_LY] + ez * body_dyn[b, DYN_LZ]
+        return d * d
+    return 1.0
+
+
+@njit(cache=True)
+def prepare(n, c_i, c_j, key, frame, gap, ri, rj, w, gterm, impulse, body_dyn, vel6,
+            warm_key, warm_impulse, htheta):
+    """Delassus diagonals, gap terms and warm start for the ``n`` contacts of the step.
+
+    W_αα = H_αᵀ M⁻¹ H_α for spheres (lever arm -r n): W_nn = 1/m_i + 1/m_j,
+    W_tt = W_ss = 1/m_i + 1/m_j + r_i²/I_i + r_j²/I_j.  The impulse of a contact that
+    existed in the previous step (same key) is restarted from its previous value
+    (global frame, projected on the new frame) and applied to the body velocities.
+
+    Returns the number of warm-started contacts.
+    """
+    nw = warm_key.shape[0]
+    hits = 0
+    for a in range(n):
+        i = c_i[a]
+        j = c_j[a]
+        nx, ny, nz = frame[a, 0], frame[a, 1], frame[a, 2]
+        tx, ty, tz = frame[a, 3], frame[a, 4], frame[a, 5]
+        sx, sy, sz = frame[a, 6], frame[a, 7], frame[a, 8]
+        imi = body_dyn[i, DYN_INV_MASS]
+        imj = body_dyn[j, DYN_INV_MASS]
+        rot = ri[a] * ri[a] * body_dyn[i, DYN_INV_INERTIA] + rj[a] * rj[a] * body_dyn[j, DYN_INV_INERTIA]
+        wn = imi * _line_factor(body_dyn, i, nx, ny, nz) + imj * _line_factor(body_dyn, j, nx, ny, nz)
+        wt = imi * _line_factor(body_dyn, i, tx, ty, tz) + imj * _line_factor(body_dyn, j, tx, ty, tz)
+        ws = imi * _line_factor(body_dyn, i, sx, sy, sz) + imj * _line_factor(body_dyn, j, sx, sy, sz)
+        w[a, 0] = wn
+        w[a, 1] = max(wt, ws) + rot
+        w[a, 2] = w[a, 1]
+        g = gap[a]
+        gterm[a] = g / htheta if g > 0.0 else 0.0
+        impulse[a, 0] = 0.0
+        impulse[a, 1] = 0.0
+        impulse[a, 2] = 0.0
+        if wn <= 0.0:  # both bodies immobile: nothing to solve
+            continue
+        # binary search of the key among the previous step's contacts
+        lo = 0
+        hi = nw
+        k = key[a]
+        while lo < hi:
+            mid = (lo + hi) >> 1
+            if warm_key[mid] < k:
+                lo = mid + 1
+            else:
+                hi = mid
+        if lo < nw and warm_key[lo] == k:
+            gx = warm_impulse[lo, 0]
+            gy = warm_impulse[lo, 1]
+            gz = warm_impulse[lo, 2]
+            pn = gx * nx + gy * ny + gz * nz
+            pt = gx * tx + gy * ty + gz * tz
+            ps = gx * sx + gy * sy + gz * sz
+            if pn > 0.0:
+                impulse[a, 0] = pn
+                impulse[a, 1] = pt
+                impulse[a, 2] = ps
+                _apply(i, j, ri[a], rj[a], pn * nx + pt * tx + ps * sx, pn * ny + pt * ty + ps * sy,
+                       pn * nz + pt * tz + ps * sz, pt, ps, tx, ty, tz, sx, sy, sz, body_dyn, vel6)
+                hits += 1
+    return hits
+
+
+@njit(cache=True)
+def sweep(n, c_i, c_j, frame, w, gterm, mu, ri, rj, impulse, body_dyn, vel6, relax):
+    """One Gauss–Seidel sweep over the ``n`` contacts; returns (Σ‖WΔp‖², Σ‖Wp‖²).
+
+    Hot loop: scalar arithmetic on contiguous arrays only (no temporaries).
+    """
+    num = 0.0
+    den = 0.0
+    for a in range(n):
+        wn = w[a, 0]
+        if wn <= 0.0:
+            continue
+        wt = w[a, 1]
+        i = c_i[a]
+        j = c_j[a]
+        nx = frame[a, 0]
+        ny = frame[a, 1]
+        nz = frame[a, 2]
+        tx = frame[a, 3]
+        ty = frame[a, 4]
+        tz = frame[a, 5]
+        sx = frame[a, 6]
+        sy = frame[a, 7]
+        sz = frame[a, 8]
+        r_i = ri[a]
+        r_j = rj[a]
+        dvx = vel6[i, 0] - vel6[j, 0]
+        dvy = vel6[i, 1] - vel6[j, 1]
+        dvz = vel6[i, 2] - vel6[j, 2]
+        ox = r_i * vel6[i, 3] + r_j * vel6[j, 3]
+        oy = r_i * vel6[i, 4] + r_j * vel6[j, 4]
+        oz = r_i * vel6[i, 5] + r_j * vel6[j, 5]
+        # local velocity u = H^T v: u_t = t·Δv - s·Ω, u_s = s·Δv + t·Ω (Ω = r_i ω_i + r_j ω_j)
+        un = nx * dvx + ny * dvy + nz * dvz
+        ut = tx * dvx + ty * dvy + tz * dvz - (sx * ox + sy * oy + sz * oz)
+        us = sx * dvx + sy * dvy + sz * dvz + (tx * ox + ty * oy + tz * oz)
+        pn0 = impulse[a, 0]
+        pt0 = impulse[a, 1]
+        ps0 = impulse[a, 2]
+        pn, pt, ps = coulomb(un - wn * pn0 + gterm[a], ut - wt * pt0, us - wt * ps0, wn, wt, mu[a])
+        if relax != 1.0:
+            pn = relax * pn + (1.0 - relax) * pn0
+            pt = relax * pt + (1.0 - relax) * pt0
+            ps = relax * ps + (1.0 - relax) * ps0
+        dpn = pn - pn0
+        dpt = pt - pt0
+        dps = ps - ps0
+        impulse[a, 0] = pn
+        impulse[a, 1] = pt
+        impulse[a, 2] = ps
+        num += (wn * dpn) ** 2 + (wt * dpt) ** 2 + (wt * dps) ** 2
+        den += (wn * pn) ** 2 + (wt * pt) ** 2 + (wt * ps) ** 2
+        _apply(i, j, r_i, r_j, dpn * nx + dpt * tx + dps * sx, dpn * ny + dpt * ty + dps * sy,
+               dpn * nz + dpt * tz + dps * sz, dpt, dps, tx, ty, tz, sx, sy, sz, body_dyn, vel6)
+    return num, den
+
+
+@njit(cache=True)
+def iterate(n, c_i, c_j, frame, w, gterm, mu, ri, rj, impulse, body_dyn, vel6, relax, tol,
+            max_iter):
+    """Sweep until the Quad residual is below ``tol`` or ``max_iter`` sweeps are done.
+
+    Returns ``(iterations, residual)``.
+    """
+    if n == 0:
+        return 0, 0.0
+    res = 0.0
+    for it in range(max_iter):
+        num, den = sweep(n, c_i, c_j, frame, w, gterm, mu, ri, rj, impulse, body_dyn, vel6, relax)
+        res = np.sqrt(num / den) if den > 0.0 else 0.0
+        if res < tol:
+            return it + 1, res
+    return max_iter, res
+
+
+@njit(cache=True)
+def warm_store(n, key, frame, impulse):
+    """Sorted keys and global-frame impulses of the step's contacts, for the next warm start."""
+    order = np.argsort(key[:n])
+    keys = np.empty(n, np.int64)
+    glob = np.empty((n, 3))
+    for m in range(n):
+        a = order[m]
+        keys[m] = key[a]
+        for d in range(3):
+            glob[m, d] = (impulse[a, 0] * frame[a, d] + impulse[a, 1] * frame[a, 3 + d]
+                          + impulse[a, 2] * frame[a, 6 + d])
+    return keys, glob
+
+
+def solve(model, state):
+    """NLGS stage of :func:`engine.step` on the contacts found by :func:`engine.contact.detect`.
+
+    Warm-starts from the previous step, sweeps to ``tol``/``max_iter``, updates
+    ``state.vel6`` in place and stores the impulses for the next warm start.
+
+    Returns
+    -------
+    (iterations, residual) : (int, float)
+    """
+    o = model.options
+    c = state.contacts_buf
+    n = c.count
+    prepare(n, c.i, c.j, c.key, c.frame, c.gap, c.ri, c.rj, c.w, c.gterm, c.impulse,
+            model.body_dyn, state.vel6, state.warm_key, state.warm_impulse, o.theta * o.dt)
+    it, res = iterate(n, c.i, c.j, c.frame, c.w, c.gterm, c.mu, c.ri, c.rj, c.impulse,
+                      model.body_dyn, state.vel6, o.relax, o.tol, o.max_iter)
+    state.warm_key, state.warm_impulse = warm_store(n, c.key, c.frame, c.impulse)
+    return int(it), float(res)

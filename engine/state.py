@@ -1,0 +1,223 @@
+"""The mutable part of a simulation, updated in place by :func:`engine.step`.
+
+Every array is a plain numpy array in SI units.  Contact data live in fixed-capacity
+buffers with a count; a kernel that needs more room reports it and the caller grows the
+buffer and runs the kernel again, so no contact is ever dropped (jax-md's overflow flag).
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+
+@dataclass
+class StepStats:
+    """What one step reports.
+
+    Attributes
+    ----------
+    iterations : int
+        NLGS sweeps done (0 when there was nothing to solve).
+    residual : float
+        Final value of the convergence norm (see :func:`engine.solver.nlgs.sweep`) [-].
+    converged : bool
+        ``residual < tol`` was reached within ``max_iter`` sweeps.
+    n_contacts : int
+        Active contacts solved in this step.
+    rebuilt : bool
+        The candidate-pair list was rebuilt in this step.
+    """
+
+    iterations: int = 0
+    residual: float = 0.0
+    converged: bool = True
+    n_contacts: int = 0
+    rebuilt: bool = False
+
+
+class ContactBuffers:
+    """Fixed-capacity contact arrays (capacity ``cap``), the first ``count`` rows valid.
+
+    Attributes
+    ----------
+    i, j : (cap,) int32
+        Candidate body (always a sphere) and antagonist body (sphere or wall).
+    sub : (cap,) int8
+        Which surface of the antagonist: 0 plane / sphere / cylinder side, 1 cylinder
+        bottom cap, 2 cylinder top cap.
+    key : (cap,) int64
+        Identity of the contact across steps, for the warm start.
+    frame : (cap, 9) float64 [-]
+        Local frame rows n, t, s; n points from j to i.
+    gap : (cap,) float64 [m]
+        Gap at the θ-predicted configuration (negative = overlap).
+    mu : (cap,) float64 [-]
+        Friction coefficient of the contact's law.
+    ri, rj : (cap,) float64 [m]
+        Lever arms (radii) of i and j (0 for walls).
+    w : (cap, 3) float64 [1/kg]
+        Diagonal of the Delassus block W_αα = H_αᵀ M⁻¹ H_α in (n, t, s).
+    gterm : (cap,) float64 [m/s]
+        max(gap, 0)/(θh), the gap term of the velocity Signorini condition.
+    impulse : (cap, 3) float64 [N·s]
+        Impulse on i in the local frame (n, t, s); -impulse acts on j.
+    """
+
+    _FIELDS = {
+        "i": (np.int32, ()), "j": (np.int32, ()), "sub": (np.int8, ()), "key": (np.int64, ()),
+        "frame": (np.float64, (9,)), "gap": (np.float64, ()), "mu": (np.float64, ()),
+        "ri": (np.float64, ()), "rj": (np.float64, ()), "w": (np.float64, (3,)),
+        "gterm": (np.float64, ()), "impulse": (np.float64, (3,)),
+    }
+
+    def __init__(self, cap: int):
+        self.count = 0
+        self.allocate(cap)
+
+    def allocate(self, cap: int) -> None:
+        """(Re)allocate every array with capacity ``cap`` (content is discarded)."""
+        self.cap = int(cap)
+        for name, (dtype, shape) in self._FIELDS.items():
+            setattr(self, name, np.zeros((self.cap,) + shape, dtype=dtype))
+
+
+@dataclass
+class State:
+    """Mutable state of a simulation.
+
+    Attributes (nb bodies)
+    ----------------------
+    time : float [s]
+    step : int
+    position : (nb, 3) float64 [m]
+        Sphere centres; for walls the reference point (plane point, cylinder base centre).
+    velocity : (nb, 3) float64 [m/s]
+        View on the first three columns of ``vel6``.
+    spin : (nb, 3) float64 [rad/s]
+        View on the last three columns of ``vel6``.
+    vel6 : (nb, 6) float64
+        Translational and angular velocity packed per body (what the kernels update).
+    force : (nb, 3) float64 [N]
+        External force of drives applied during the last step (gravity excluded).
+    contacts_buf : ContactBuffers
+        Active contacts of the last step.
+    pairs : (cap, 2) int32 ; n_pairs : int
+        Candidate sphere–sphere pairs of the broadphase (closer than alert + skin).
+    pairs_ref : (nb, 3) float64 [m]
+        Positions at the last broadphase build.
+    warm_key : (k,) int64 sorted ; warm_impulse : (k, 3) float64 [N·s, global frame]
+        Impulses of the previous step, for the warm start.
+    stats : StepStats
+        What the last step reported.
+    last_dt : float [s]
+        Length of the last step (0 before the first), to turn impulses into forces.
+    """
+
+    position: np.ndarray
+    vel6: np.ndarray
+    time: float = 0.0
+    step: int = 0
+    force: np.ndarray = None
+    contacts_buf: ContactBuffers = None
+    pairs: np.ndarray = None
+    n_pairs: int = 0
+    pairs_ref: np.ndarray = None
+    warm_key: np.ndarray = field(default_factory=lambda: np.zeros(0, np.int64))
+    warm_impulse: np.ndarray = field(default_factory=lambda: np.zeros((0, 3)))
+    stats: StepStats = field(default_factory=StepStats)
+    last_dt: float = 0.0
+
+    def __post_init__(self):
+        nb = self.position.shape[0]
+        if self.force is None:
+            self.force = np.zeros((nb, 3))
+        if self.contacts_buf is None:
+            self.contacts_buf = ContactBuffers(max(64, 4 * nb))
+        if self.pairs is None:
+            self.pairs = np.zeros((max(64, 8 * nb), 2), np.int32)
+
+    # -- views --------------------------------------------------------------------------
+    @property
+    def velocity(self) -> np.ndarray:
+        return self.vel6[:, :3]
+
+    @velocity.setter
+    def velocity(self, value) -> None:
+        self.vel6[:, :3] = value
+
+    @property
+    def spin(self) -> np.ndarray:
+        return self.vel6[:, 3:]
+
+    @spin.setter
+    def spin(self, value) -> None:
+        self.vel6[:, 3:] = value
+
+    @property
+    def contacts(self) -> "ContactsView":
+        """Active contacts of the last step, in the global frame (see :class:`ContactsView`)."""
+        return ContactsView(self)
+
+    def copy(self) -> "State":
+        """A deep copy (for restarts and comparisons)."""
+        import copy
+
+        return copy.deepcopy(self)
+
+
+class ContactsView:
+    """Read-only view of the active contacts of the last step (k contacts).
+
+    Attributes
+    ----------
+    i, j : (k,) int32
+        The two bodies; the force acts on i, its opposite on j.
+    normal : (k, 3) [-]
+        Unit normal from j to i.
+    point : (k, 3) [m]
+        Contact point (middle of the gap, on the normal line through i's centre).
+    gap : (k,) [m]
+        Gap at the θ-predicted configuration of the step (negative = overlap).
+    impulse : (k, 3) [N·s]
+        Impulse on i in the local frame (n, t, s).
+    force : (k, 3) [N]
+        Mean force on i over the step, global frame (impulse / h).
+    normal_force : (k,) [N]
+        Normal component of ``force`` (>= 0, compression).
+    """
+
+    def __init__(self, state: State):
+        c = state.contacts_buf
+        k = c.count
+        self.i = c.i[:k].copy()
+        self.j = c.j[:k].copy()
+        self.sub = c.sub[:k].copy()
+        fr = c.frame[:k]
+        self.normal = fr[:, 0:3].copy()
+        self.gap = c.gap[:k].copy()
+        self.impulse = c.impulse[:k].copy()
+        self.impulse_global = (self.impulse[:, 0:1] * fr[:, 0:3] + self.impulse[:, 1:2] * fr[:, 3:6]
+                               + self.impulse[:, 2:3] * fr[:, 6:9])
+        ri = c.ri[:k]
+        self.point = state.position[self.i] - (ri + 0.5 * self.gap)[:, None] * self.normal
+        if np.any(c.rj[:k] == 0.0):  # walls: the point lies on the wall surface
+            wall = c.rj[:k] == 0.0
+            self.point[wall] = (state.position[self.i[wall]]
+                                - (ri[wall] + self.gap[wall])[:, None] * self.normal[wall])
+        self.dt = state.last_dt
+
+    def __len__(self) -> int:
+        return int(self.i.shape[0])
+
+    @property
+    def force(self) -> np.ndarray:
+        if not self.dt:
+            raise ValueError("contact forces need the step length; run at least one step first")
+        return self.impulse_global / self.dt
+
+    @property
+    def normal_force(self) -> np.ndarray:
+        if not self.dt:
+            raise ValueError("contact forces need the step length; run at least one step first")
+        return self.impulse[:, 0] / self.dt

@@ -1,0 +1,217 @@
+"""One time step, and the run loop with writers, progress bar and Ctrl-C safety.
+
+The order of one step (each stage a public function of ``(model, state)``, testable alone):
+
+1. :func:`engine.integrator.free_velocity` — drive forces at t_i, positions moved to the
+   θ-predicted configuration q_m = q_i + (1-θ) h v_i, free velocity
+   v_free = v_i + h M⁻¹ F (Eq. 4), imposed velocities set to their value at t_{i+1};
+2. :func:`engine.contact.detect` — broadphase (rebuilt when a sphere has moved more than
+   half the skin) and narrowphase at q_m: active contacts, gaps, local frames;
+3. :func:`engine.solver.nlgs.solve` — warm start from the previous step's impulses, NLGS
+   sweeps on Signorini + Coulomb (Eq. 5-6) until the Quad residual is below ``tol`` or
+   ``max_iter``; the body velocities become v_{i+1};
+4. :func:`engine.integrator.update` — q_{i+1} = q_m + θ h v_{i+1}; time advances by h.
+
+:func:`run` then calls every writer whose trigger fires (writers never modify the state).
+"""
+from __future__ import annotations
+
+import signal
+import time as _time
+from dataclasses import dataclass, field
+from typing import Callable, Iterable
+
+import numpy as np
+
+from .contact import detect
+from .integrator import free_velocity, update
+from .solver.nlgs import solve
+from .state import StepStats
+
+
+class SimulationError(RuntimeError):
+    """The simulation produced a non-finite value (step and bodies named)."""
+
+
+def step(model, state) -> StepStats:
+    """Advance ``state`` by one time step h = ``model.options.dt`` (in place).
+
+    Returns
+    -------
+    StepStats
+        ``iterations``, ``residual``, ``converged``, ``n_contacts``, ``rebuilt``.
+    """
+    free_velocity(model, state)
+    rebuilt = detect(model, state)
+    it, res = solve(model, state)
+    update(model, state)
+    n = state.contacts_buf.count
+    stats = StepStats(iterations=it, residual=res, converged=res < model.options.tol,
+                      n_contacts=n, rebuilt=rebuilt)
+    state.stats = stats
+    return stats
+
+
+def every(n: int) -> Callable[[int], bool]:
+    """Trigger firing every ``n`` steps (on step numbers that are multiples of n)."""
+    if int(n) < 1:
+        raise ValueError(f"every(n): n must be >= 1, got {n!r}")
+    n = int(n)
+    return lambda s: s % n == 0
+
+
+class CallbackWriter:
+    """A writer calling ``fn(model, state)`` when ``trigger(step)`` fires.
+
+    Any object with ``trigger(step) -> bool`` and ``write(model, state)`` (and optionally
+    ``flush()`` and ``close()``) is a writer.
+    """
+
+    def __init__(self, fn: Callable, trigger: Callable[[int], bool] | int = 1):
+        self.fn = fn
+        self.trigger = every(trigger) if isinstance(trigger, int) else trigger
+
+    def write(self, model, state) -> None:
+        self.fn(model, state)
+
+
+@dataclass
+class RunSummary:
+    """What :func:`run` reports.
+
+    Attributes
+    ----------
+    steps : int
+        Steps done in this call.
+    time : float [s]
+        Simulated time reached.
+    wall_time : float [s]
+    interrupted : bool
+        Ctrl-C (SIGINT) or SIGTERM stopped the run after a complete step.
+    non_converged : list of int
+        Step numbers that hit ``max_iter`` without reaching ``tol``.
+    max_residual : float
+        Largest final residual over the run's steps.
+    mean_iterations : float
+    max_contacts : int
+    """
+
+    steps: int = 0
+    time: float = 0.0
+    wall_time: float = 0.0
+    interrupted: bool = False
+    non_converged: list = field(default_factory=list)
+    max_residual: float = 0.0
+    mean_iterations: float = 0.0
+    max_contacts: int = 0
+
+    def __str__(self) -> str:
+        nc = len(self.non_converged)
+        head = (f"{self.steps} steps to t = {self.time:.6g} s in {self.wall_time:.3g} s; "
+                f"mean {self.mean_iterations:.1f} NLGS sweeps/step; up to {self.max_contacts} contacts; ")
+        if nc:
+            shown = ", ".join(map(str, self.non_converged[:10])) + (" ..." if nc > 10 else "")
+            head += f"{nc} steps did NOT converge (max residual {self.max_residual:.3g}): steps {shown}"
+        else:
+            head += f"all steps converged (max residual {self.max_residual:.3g})"
+        if self.interrupted:
+            head += "; interrupted"
+        return head
+
+
+def _check_finite(model, state) -> None:
+    bad = ~(np.isfinite(state.position).all(axis=1) & np.isfinite(state.vel6).all(axis=1))
+    if bad.any():
+        ids = np.flatnonzero(bad)
+        raise SimulationError(
+            f"non-finite position or velocity at step {state.step} (t = {state.time:.6g} s) "
+            f"for {ids.size} bodies, e.g. ids {ids[:10].tolist()}; "
+            f"check dt = {model.options.dt:g} s, drives and overlaps")
+
+
+def run(model, state, steps: int, writers: Iterable = (), progress: bool = True) -> RunSummary:
+    """Run ``steps`` steps of :func:`step`, calling writers after each step when they fire.
+
+    Parameters
+    ----------
+    steps : int >= 0
+    writers : iterable of writers (``trigger(step)``, ``write(model, state)``, optional
+        ``flush()``); they run after a complete step and never modify the state.
+    progress : bool
+        Show a tqdm progress bar with the step rate, NLGS sweeps and contacts.
+
+    Returns
+    -------
+    RunSummary
+        Non-converged steps are listed, never hidden.
+
+    Raises
+    ------
+    SimulationError
+        A position or velocity became NaN/Inf (the step and the bodies are named).
+
+    Notes
+    -----
+    Ctrl-C (SIGINT) and SIGTERM stop the run after the current step completes: writers are
+    flushed and the summary (``interrupted=True``) is returned with the state reached.
+    """
+    if not isinstance(steps, (int, np.integer)) or steps < 0:
+        raise ValueError(f"steps must be an integer >= 0, got {steps!r}")
+    writers = list(writers)
+    summary = RunSummary()
+    stop = {"flag": False}
+
+    def _handler(signum, frame):
+        stop["flag"] = True
+
+    old = {}
+    try:  # signals can only be caught in the main thread
+        for sig in (signal.SIGINT, signal.SIGTERM):
+            old[sig] = signal.signal(sig, _handler)
+    except ValueError:
+        old = {}
+
+    bar = None
+    if progress:
+        from tqdm.auto import tqdm
+
+        bar = tqdm(total=int(steps), unit="step", dynamic_ncols=True, leave=True)
+    t0 = _time.perf_counter()
+    total_it = 0
+    try:
+        for _ in range(int(steps)):
+            stats = step(model, state)
+            _check_finite(model, state)
+            summary.steps += 1
+            total_it += stats.iterations
+            summary.max_residual = max(summary.max_residual, stats.residual)
+            summary.max_contacts = max(summary.max_contacts, stats.n_contacts)
+            if not stats.converged:
+                summary.non_converged.append(state.step)
+            for w in writers:
+                if w.trigger(state.step):
+                    w.write(model, state)
+            if bar is not None:
+                bar.update(1)
+                if summary.steps % 20 == 0 or summary.steps == steps:
+                    bar.set_postfix(it=stats.iterations, res=f"{stats.residual:.1e}",
+                                    contacts=stats.n_contacts, nc=len(summary.non_converged),
+                                    refresh=False)
+            if stop["flag"]:
+                summary.interrupted = True
+                break
+    finally:
+        for sig, h in old.items():
+            signal.signal(sig, h)
+        for w in writers:
+            if hasattr(w, "flush"):
+                w.flush()
+        if bar is not None:
+            bar.close()
+        summary.wall_time = _time.perf_counter() - t0
+        summary.time = state.time
+        summary.mean_iterations = total_it / summary.steps if summary.steps else 0.0
+    return summary
+
+
+__all__ = ["step", "run", "every", "CallbackWriter", "RunSummary", "SimulationError"]

@@ -8,7 +8,8 @@ The position update is split in two stages so that contacts are detected at the
 θ-predicted configuration q_m = q_i + (1-θ) h v_i (LMGC90's "configuration TT"):
 :func:`free_velocity` moves the positions to q_m and computes v_free; :func:`update`
 completes q_{i+1} = q_m + θ h v_{i+1}.  A contact's end-of-step gap is then
-g_m + θ h u_n, which the velocity Signorini condition of the NLGS keeps >= 0.
+g_m + θ h u_n and the next predicted gap g_m + h u_n; the velocity Signorini condition
+u_n + max(g_m, 0)/h >= 0 of the NLGS keeps both >= 0 (see :mod:`engine.solver.local`).
 
 External forces are constant over a step (gravity, force drives, pressure × area
 evaluated at t_i), so the θ-weighting of F reduces to F_i.  Spheres do not need an

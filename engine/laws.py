@@ -55,7 +55,7 @@ class Coulomb(Law):
     -----
     Local problem of Eq. (5)-(6) extended to friction: with ``u`` the relative velocity
     in the local frame (n, t, s) at the end of the step and ``p`` the impulse,
-    ``0 <= u_n + g⁺/(hθ) ⊥ p_n >= 0`` and ``‖p_t‖ <= μ p_n`` with ``p_t = -λ u_t`` when
+    ``0 <= u_n + max(g_m, 0)/h ⊥ p_n >= 0`` and ``‖p_t‖ <= μ p_n`` with ``p_t = -λ u_t`` when
     sliding (see :mod:`engine.solver.local`).
     """
 

@@ -59,7 +59,7 @@ class ContactBuffers:
     w : (cap, 3) float64 [1/kg]
         Diagonal of the Delassus block W_αα = H_αᵀ M⁻¹ H_α in (n, t, s).
     gterm : (cap,) float64 [m/s]
-        max(gap, 0)/(θh), the gap term of the velocity Signorini condition.
+        max(gap, 0)/h, the gap term of the velocity Signorini condition.
     impulse : (cap, 3) float64 [N·s]
         Impulse on i in the local frame (n, t, s); -impulse acts on j.
     """

@@ -43,10 +43,10 @@ def detect(model, state) -> bool:
         True if the candidate list was rebuilt.
     """
     o = model.options
-    htheta = o.theta * o.dt
+    h = o.dt
     rebuilt = False
     if state.pairs_ref is None or max_displacement(
-            state.position, state.pairs_ref, state.vel6, model.sphere_ids, htheta) > 0.5 * o.skin:
+            state.position, state.pairs_ref, state.vel6, model.sphere_ids, h) > 0.5 * o.skin:
         rebuild_pairs(model, state)
         rebuilt = True
     c = state.contacts_buf
@@ -54,7 +54,7 @@ def detect(model, state) -> bool:
         k = narrowphase(state.position, state.vel6, model.body_radius, model.body_kind,
                         model.body_group, model.body_axis, model.body_height, model.body_caps,
                         model.pair_law, model.law_param, state.pairs, state.n_pairs,
-                        model.sphere_ids, model.wall_ids, o.alert, htheta,
+                        model.sphere_ids, model.wall_ids, o.alert, h,
                         c.i, c.j, c.sub, c.key, c.frame, c.gap, c.mu, c.ri, c.rj)
         if k <= c.cap:
             break

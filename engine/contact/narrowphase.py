@@ -6,7 +6,7 @@ which a compressive impulse pushes i); t and s complete a right-handed orthonorm
 
 A pair becomes an active contact when its gap g at the θ-predicted configuration is below
 the alert distance, or when the free relative velocity would close it within the step
-(g + θ h u_n < 0): nothing fast can tunnel through the alert band.
+(g + h u_n < 0, the horizon of the Signorini condition u_n + max(g, 0)/h >= 0): nothing fast can tunnel through the alert band.
 """
 from __future__ import annotations
 
@@ -104,7 +104,7 @@ def _wall_gap(x, y, z, r, kind, px, py, pz, ax, ay, az, R, H, caps, sub):
 
 @njit(cache=True)
 def narrowphase(pos, vel6, radius, kind, group, axis, height, caps, pair_law, law_param,
-                pairs, n_pairs, sphere_ids, wall_ids, alert, htheta,
+                pairs, n_pairs, sphere_ids, wall_ids, alert, h,
                 o_i, o_j, o_sub, o_key, o_frame, o_gap, o_mu, o_ri, o_rj):
     """Active contacts at configuration ``pos`` with free velocities ``vel6``.
 
@@ -116,7 +116,7 @@ def narrowphase(pos, vel6, radius, kind, group, axis, height, caps, pair_law, la
     pair_law : (ng, ng) int16 ; law_param : (nlaw, 4) float64
     pairs : (cap, 2) int32 candidate sphere pairs, the first ``n_pairs`` valid.
     sphere_ids, wall_ids : int32 body ids.
-    alert : float [m] ; htheta : float [s] (θ h)
+    alert : float [m] ; h : float [s] time step
     o_* : output buffers of equal capacity (see :class:`engine.state.ContactBuffers`).
 
     Returns
@@ -141,7 +141,7 @@ def narrowphase(pos, vel6, radius, kind, group, axis, height, caps, pair_law, la
             inv = 1.0 / dist
             un = (dx * (vel6[i, 0] - vel6[j, 0]) + dy * (vel6[i, 1] - vel6[j, 1])
                   + dz * (vel6[i, 2] - vel6[j, 2])) * inv
-            if gap + htheta * un > 0.0:
+            if gap + h * un > 0.0:
                 continue
         if dist > 1e-300:
             inv = 1.0 / dist
@@ -176,7 +176,7 @@ def narrowphase(pos, vel6, radius, kind, group, axis, height, caps, pair_law, la
                 if gap > alert:
                     un = (nx * (vel6[i, 0] - vel6[w, 0]) + ny * (vel6[i, 1] - vel6[w, 1])
                           + nz * (vel6[i, 2] - vel6[w, 2]))
-                    if gap + htheta * un > 0.0:
+                    if gap + h * un > 0.0:
                         continue
                 _emit(k, cap, i, w, sub, nb, nx, ny, nz, gap, law_param[law, 0], r, 0.0,
                       o_i, o_j, o_sub, o_key, o_frame, o_gap, o_mu, o_ri, o_rj)

@@ -18,7 +18,12 @@ def coulomb(fn, ft, fs, wn, wt, mu):
     u = f + W p with W = diag(wn, wt, wt) [1/kg] (the blocks of Eq. 5 for spheres: n is
     decoupled from t, s because the lever arms are parallel to n):
 
-    * Signorini (Eq. 6 with the gap term folded into ``fn``): 0 <= u_n ⊥ p_n >= 0;
+    * Signorini (Eq. 6 with the gap term folded into ``fn``):
+      0 <= u_n + max(g_m, 0)/h ⊥ p_n >= 0, with g_m the gap at the θ-predicted
+      configuration q_m = q_i + (1-θ) h v_i.  This keeps the next predicted gap
+      g_m + h u_n >= 0 and the end-of-step gap g_m + θ h u_n >= (1-θ) g_m >= 0 for every
+      θ in [0.5, 1] (no penetration at impact), with no artificial restitution: an
+      overlap that exists (g_m < 0) is not pushed out, only kept from growing;
     * Coulomb: ‖p_T‖ <= μ p_n, u_T = 0 if ‖p_T‖ < μ p_n, else p_T = -μ p_n u_T/‖u_T‖.
 
     Because W is diagonal with equal tangential entries, the exact solution is the
@@ -27,7 +32,7 @@ def coulomb(fn, ft, fs, wn, wt, mu):
     Parameters
     ----------
     fn, ft, fs : float [m/s]
-        Local free velocity (normal part includes max(g, 0)/(θh)).
+        Local free velocity (normal part includes max(g_m, 0)/h).
     wn, wt : float [1/kg]
         Normal and tangential diagonal of W_αα.
     mu : float [-]

@@ -68,11 +68,12 @@ def _line_factor(body_dyn, b, ex, ey, ez):
 
 @njit(cache=True)
 def prepare(n, c_i, c_j, key, frame, gap, ri, rj, w, gterm, impulse, body_dyn, vel6,
-            warm_key, warm_impulse, htheta):
+            warm_key, warm_impulse, h):
     """Delassus diagonals, gap terms and warm start for the ``n`` contacts of the step.
 
     W_αα = H_αᵀ M⁻¹ H_α for spheres (lever arm -r n): W_nn = 1/m_i + 1/m_j,
-    W_tt = W_ss = 1/m_i + 1/m_j + r_i²/I_i + r_j²/I_j.  The impulse of a contact that
+    W_tt = W_ss = 1/m_i + 1/m_j + r_i²/I_i + r_j²/I_j.  The gap term is max(g_m, 0)/h
+    (see :func:`engine.solver.local.coulomb`).  The impulse of a contact that
     existed in the previous step (same key) is restarted from its previous value
     (global frame, projected on the new frame) and applied to the body velocities.
 
@@ -96,7 +97,7 @@ def prepare(n, c_i, c_j, key, frame, gap, ri, rj, w, gterm, impulse, body_dyn, v
         w[a, 1] = max(wt, ws) + rot
         w[a, 2] = w[a, 1]
         g = gap[a]
-        gterm[a] = g / htheta if g > 0.0 else 0.0
+        gterm[a] = g / h if g > 0.0 else 0.0
         impulse[a, 0] = 0.0
         impulse[a, 1] = 0.0
         impulse[a, 2] = 0.0
@@ -233,7 +234,7 @@ def solve(model, state):
     c = state.contacts_buf
     n = c.count
     prepare(n, c.i, c.j, c.key, c.frame, c.gap, c.ri, c.rj, c.w, c.gterm, c.impulse,
-            model.body_dyn, state.vel6, state.warm_key, state.warm_impulse, o.theta * o.dt)
+            model.body_dyn, state.vel6, state.warm_key, state.warm_impulse, o.dt)
     it, res = iterate(n, c.i, c.j, c.frame, c.w, c.gterm, c.mu, c.ri, c.rj, c.impulse,
                       model.body_dyn, state.vel6, o.relax, o.tol, o.max_iter)
     state.warm_key, state.warm_impulse = warm_store(n, c.key, c.frame, c.impulse)

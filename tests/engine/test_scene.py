@@ -1,0 +1,127 @@
+"""Bad input gives a ValueError naming the field and the allowed range or offending ids."""
+import numpy as np
+import pytest
+
+from engine import Scene, laws
+
+
+def _base():
+    s = Scene()
+    s.add_plane(group="wall")
+    s.add_spheres([[0, 0, 1e-3], [0, 0, 3.5e-3]], 1e-3, density=2650.0, group="sand")
+    s.interact("sand", "sand", laws.Coulomb(mu=0.5))
+    s.interact("sand", "wall", laws.Coulomb(mu=0.5))
+    return s
+
+
+def _compile(**kw):
+    def go():
+        opts = dict(dt=1e-4)
+        opts.update(kw)
+        _base().compile(**opts)
+    return go
+
+
+def _spheres(**kw):
+    def go():
+        args = dict(centers=[[0, 0, 1]], radii=1e-3, density=2650.0)
+        args.update(kw)
+        Scene().add_spheres(**args)
+    return go
+
+
+def _missing_law():
+    s = Scene()
+    s.add_plane(group="wall")
+    s.add_spheres([[0, 0, 1e-3]], 1e-3, density=2650.0, group="sand")
+    s.compile(dt=1e-4)
+
+
+def _missing_sand_sand():
+    s = Scene()
+    s.add_spheres([[0, 0, 1e-3], [0, 0, 5e-3]], 1e-3, density=2650.0, group="sand")
+    s.compile(dt=1e-4)
+
+
+def _unknown_group():
+    s = _base()
+    s.interact("sand", "wires", laws.Coulomb(mu=0.3))
+    s.compile(dt=1e-4)
+
+
+def _overlap():
+    s = Scene()
+    s.add_spheres([[0, 0, 0], [1.9e-3, 0, 0], [10e-3, 0, 0]], 1e-3, density=2650.0)
+    s.interact("sand", "sand", laws.Coulomb(mu=0.5))
+    s.compile(dt=1e-4)
+
+
+def _wall_penetration():
+    s = Scene()
+    s.add_plane(group="wall")
+    s.add_spheres([[0, 0, 0.5e-3]], 1e-3, density=2650.0)
+    s.interact("sand", "wall", laws.Coulomb(mu=0.5))
+    s.compile(dt=1e-4)
+
+
+BAD = {
+    "zero radius": (_spheres(radii=0.0), r"radii must be finite and > 0 m"),
+    "negative radius": (_spheres(radii=[-1e-3]), r"radii .*> 0 m.*ids \[0\]"),
+    "zero density": (_spheres(density=0.0), r"density must be finite and > 0 \[kg/m³\]"),
+    "negative density": (_spheres(density=-5.0), r"density .*> 0"),
+    "nan centre": (_spheres(centers=[[0, np.nan, 0]]), r"centers must be finite.*ids \[0\]"),
+    "dt zero": (_compile(dt=0.0), r"dt\n.*greater than 0"),
+    "dt negative": (_compile(dt=-1e-4), r"dt\n.*greater than 0"),
+    "theta low": (_compile(theta=0.4), r"theta\n.*greater than or equal to 0.5"),
+    "theta high": (_compile(theta=1.2), r"theta\n.*less than or equal to 1"),
+    "tol zero": (_compile(tol=0.0), r"tol\n.*greater than 0"),
+    "max_iter zero": (_compile(max_iter=0), r"max_iter\n.*greater than or equal to 1"),
+    "relax zero": (_compile(relax=0.0), r"relax\n.*greater than 0"),
+    "mu negative": (lambda: laws.Coulomb(mu=-0.1), r"mu\n.*greater than or equal to 0"),
+    "missing law wall": (_missing_law, r"no declared law: \('sand', 'wall'\)"),
+    "missing law sand": (_missing_sand_sand, r"no declared law: \('sand', 'sand'\)"),
+    "unknown group": (_unknown_group, r"unknown group names \['wires'\]"),
+    "overlap": (_overlap, r"1 pairs of spheres overlap by more than 1% .*ids \[\[0, 1\]\]"),
+    "wall penetration": (_wall_penetration, r"penetrate wall 0 .*ids \[1\]"),
+    "fix unknown id": (lambda: _base().fix([7]), r"unknown body ids \[7\]"),
+    "pressure on sphere": (lambda: _base().drive(1, pressure=1e3, area=1.0), r"pressure drives apply to planes"),
+    "pressure without area": (lambda: _base().drive(0, pressure=1e3, mass=1.0), r"needs area="),
+    "force wall without mass": (lambda: _base().drive(0, force=(0, 0, 1)), r"mass must be a number > 0"),
+    "two drives": (lambda: _base().drive(1, velocity=(0, 0, 1), force=(0, 0, 1)), r"exactly one of"),
+}
+
+
+@pytest.mark.parametrize("case", sorted(BAD))
+def test_bad_input_raises_value_error(case):
+    fn, pattern = BAD[case]
+    with pytest.raises(ValueError, match=pattern):
+        fn()
+
+
+def test_explicit_no_interaction_is_allowed():
+    s = Scene()
+    s.add_plane(group="wall")
+    s.add_spheres([[0, 0, 1e-3], [0, 0, 5e-3]], 1e-3, density=2650.0, group="sand")
+    s.interact("sand", "sand", None)
+    s.interact("sand", "wall", laws.Coulomb(mu=0.5))
+    model, _ = s.compile(dt=1e-4)
+    assert model.pair_law[0, 0] == -1 and model.pair_law[0, 1] == 0
+
+
+def test_overlap_within_tolerance_is_accepted():
+    s = Scene()
+    s.add_spheres([[0, 0, 0], [2e-3 - 0.5e-5, 0, 0]], 1e-3, density=2650.0)  # 0.5 % overlap
+    s.interact("sand", "sand", laws.Coulomb(mu=0.5))
+    model, state = s.compile(dt=1e-4)
+    assert model.n_spheres == 2
+
+
+def test_model_arrays_are_read_only_and_in_si():
+    model, state = _base().compile(dt=1e-4)
+    r = 1e-3
+    m = 2650.0 * 4 / 3 * np.pi * r ** 3
+    np.testing.assert_allclose(model.body_mass[model.sphere_ids], m, rtol=1e-14)
+    np.testing.assert_allclose(model.body_inertia[model.sphere_ids], 0.4 * m * r * r, rtol=1e-14)
+    with pytest.raises(ValueError):
+        model.body_radius[0] = 1.0
+    assert state.velocity.base is state.vel6 and state.spin.base is state.vel6

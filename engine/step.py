@@ -17,6 +17,7 @@ The order of one step (each stage a public function of ``(model, state)``, testa
 from __future__ import annotations
 
 import signal
+import warnings
 import time as _time
 from dataclasses import dataclass, field
 from typing import Callable, Iterable
@@ -31,6 +32,10 @@ from .state import StepStats
 
 class SimulationError(RuntimeError):
     """The simulation produced a non-finite value (step and bodies named)."""
+
+
+class NonConvergenceWarning(RuntimeWarning):
+    """Some steps of a run hit ``max_iter`` before the NLGS residual reached ``tol``."""
 
 
 def step(model, state) -> StepStats:
@@ -143,7 +148,8 @@ def run(model, state, steps: int, writers: Iterable = (), progress: bool = True)
     Returns
     -------
     RunSummary
-        Non-converged steps are listed, never hidden.
+        Non-converged steps are listed, never hidden: if there are any, a
+        :class:`NonConvergenceWarning` carrying the summary is also issued.
 
     Raises
     ------
@@ -211,7 +217,14 @@ def run(model, state, steps: int, writers: Iterable = (), progress: bool = True)
         summary.wall_time = _time.perf_counter() - t0
         summary.time = state.time
         summary.mean_iterations = total_it / summary.steps if summary.steps else 0.0
+    if summary.non_converged:
+        warnings.warn(str(summary), NonConvergenceWarning, stacklevel=2)
+    elif progress:
+        from tqdm.auto import tqdm
+
+        tqdm.write(str(summary))
     return summary
 
 
-__all__ = ["step", "run", "every", "CallbackWriter", "RunSummary", "SimulationError"]
+__all__ = ["step", "run", "every", "CallbackWriter", "RunSummary", "SimulationError",
+           "NonConvergenceWarning"]

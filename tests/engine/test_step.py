@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from engine import Scene, SimulationError, laws, run, step
-from engine.step import CallbackWriter, every
+from engine.step import CallbackWriter, NonConvergenceWarning, every
 from tests.helpers import G, lattice_pile
 
 
@@ -48,7 +48,8 @@ def test_writers_fire_on_their_trigger_after_complete_steps():
 
 def test_non_converged_steps_are_counted_and_shown():
     model, state = _pile(max_iter=1, tol=1e-12)
-    summary = run(model, state, 300, progress=False)
+    with pytest.warns(NonConvergenceWarning, match="did NOT converge"):
+        summary = run(model, state, 300, progress=False)
     assert len(summary.non_converged) > 0
     assert all(1 <= s <= 300 for s in summary.non_converged)
     assert "did NOT converge" in str(summary)

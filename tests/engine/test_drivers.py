@@ -72,3 +72,18 @@ def test_fixed_sphere_does_not_move_and_supports_another(theta):
     assert np.all(state.position[base] == 0.0) and np.all(state.vel6[base] == 0.0)
     assert state.position[top, 2] == pytest.approx(2 * r, abs=1e-12)
     assert state.contacts.normal_force[0] == pytest.approx(model.body_mass[top] * G, rel=1e-9)
+
+
+def test_time_dependent_velocity_drive_follows_the_theta_rule(theta):
+    """A wall driven at v(t) = a t moves by h Σ((1-θ) v(t_i) + θ v(t_i+1)) = a h² (n(n-1)/2 + θ n)."""
+    a, h, n = 2.0, 1e-3, 50
+    s = Scene()
+    wall = s.add_plane(point=(0, 0, -1.0), normal=(0, 0, 1))
+    s.add_spheres([[0, 0, 1.0]], 0.01, density=1000.0)
+    s.interact("sand", "wall", laws.Coulomb(mu=0.0))
+    s.drive(wall, velocity=lambda t: (0.0, 0.0, a * t))
+    model, state = s.compile(dt=h, theta=theta)
+    run(model, state, n, progress=False)
+    assert state.position[wall, 2] == pytest.approx(-1.0 + a * h * h * (n * (n - 1) / 2 + theta * n),
+                                                    rel=1e-12)
+    assert state.velocity[wall, 2] == pytest.approx(a * n * h, rel=1e-12)

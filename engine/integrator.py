@@ -76,7 +76,11 @@ def update(model, state) -> None:
     """Last stage of a step: q_{i+1} = q_m + θ h v_{i+1}; time advances by h."""
     o = model.options
     _update(state.position, state.vel6, o.theta * o.dt)
-    state.time += o.dt
+    # compensated (Kahan) sum: after n steps, time is n·h to the last bit, not n rounding errors
+    y = o.dt - state.time_compensation
+    t = state.time + y
+    state.time_compensation = (t - state.time) - y
+    state.time = t
     state.step += 1
     state.last_dt = o.dt
 

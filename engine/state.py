@@ -112,6 +112,8 @@ class State:
         What the last step reported.
     last_dt : float [s]
         Length of the last step (0 before the first), to turn impulses into forces.
+    time_compensation : float [s]
+        Running compensation of the Kahan sum that accumulates ``time``.
     """
 
     position: np.ndarray
@@ -127,6 +129,7 @@ class State:
     warm_impulse: np.ndarray = field(default_factory=lambda: np.zeros((0, 3)))
     stats: StepStats = field(default_factory=StepStats)
     last_dt: float = 0.0
+    time_compensation: float = 0.0
 
     def __post_init__(self):
         nb = self.position.shape[0]

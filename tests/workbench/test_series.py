@@ -1,0 +1,105 @@
+"""SeriesWriter: PVD timesteps, sphere VTUs and contact-line VTUs of a short run."""
+from __future__ import annotations
+
+import subprocess
+import sys
+
+import meshio
+import numpy as np
+import pytest
+
+from engine import Scene, laws, run
+from engine.step import CallbackWriter
+from workbench.series import SeriesWriter, read_pvd
+
+R = 1e-3  # [m]
+
+
+def _scene():
+    """Five spheres on a plane: a row of three touching ones, one on top of the row
+    (sphere–sphere contacts) and one falling from 2 mm (contacts appear during the run)."""
+    s = Scene(gravity=(0.0, 0.0, -9.81))
+    s.add_plane(point=(0, 0, 0), normal=(0, 0, 1), group="wall")
+    radii = np.array([R, 0.9 * R, R, 0.8 * R, 1.1 * R])
+    x0, x1 = 0.0, R + 0.9 * R
+    x2 = x1 + 0.9 * R + R
+    z_top = R + np.sqrt((R + 0.8 * R) ** 2 - (0.5 * (x1 - x0)) ** 2) * 1.001
+    centers = [[x0, 0, R], [x1, 0, 0.9 * R], [x2, 0, R], [0.5 * (x0 + x1), 0, z_top],
+               [6 * R, 0, 2e-3 + 1.1 * R]]
+    s.add_spheres(centers, radii, density=2650.0, group="sand")
+    s.interact("sand", "sand", laws.Coulomb(mu=0.5))
+    s.interact("sand", "wall", laws.Coulomb(mu=0.5))
+    return s.compile(dt=1e-3, theta=0.5, tol=1e-6, max_iter=500)
+
+
+@pytest.fixture(scope="module")
+def result(tmp_path_factory):
+    out = tmp_path_factory.mktemp("series")
+    model, state = _scene()
+    writer = SeriesWriter(out, every=5, name="fall")
+    times, normal_forces = [], []
+
+    def record(model, state):
+        times.append(state.time)
+        normal_forces.append(state.contacts.normal_force.copy())
+
+    summary = run(model, state, 20, writers=[writer, CallbackWriter(record, trigger=5)],
+                  progress=False)
+    return out, writer, model, state, summary, times, normal_forces
+
+
+def test_pvd_timesteps_are_state_times(result):
+    out, writer, model, state, summary, times, _ = result
+    assert summary.steps == 20 and writer.frames == 4
+    entries = read_pvd(writer.pvd_path)
+    spheres = [e for e in entries if e["part"] == 0]
+    assert [e["timestep"] for e in spheres] == times  # exact: written with repr
+    assert all(e["file"].is_file() for e in entries)
+    # every frame of this run has contacts, so each timestep has both parts
+    assert [e["timestep"] for e in entries if e["part"] == 1] == times
+
+
+def test_sphere_vtu(result):
+    out, writer, model, state, *_ = result
+    entries = [e for e in read_pvd(writer.pvd_path) if e["part"] == 0]
+    ids = model.sphere_ids
+    for e in entries:
+        mesh = meshio.read(e["file"])
+        assert mesh.points.shape == (ids.size, 3)
+        np.testing.assert_array_equal(mesh.point_data["radius"], model.body_radius[ids])
+        np.testing.assert_array_equal(mesh.point_data["group"], model.body_group[ids])
+        assert mesh.cells[0].type == "vertex" and len(mesh.cells[0].data) == ids.size
+    last = meshio.read(entries[-1]["file"])
+    np.testing.assert_array_equal(last.points, state.position[ids])
+    np.testing.assert_array_equal(last.point_data["velocity"], state.velocity[ids])
+
+
+def test_contact_lines_last_frame(result):
+    out, writer, model, state, _, _, normal_forces = result
+    entries = [e for e in read_pvd(writer.pvd_path) if e["part"] == 1]
+    mesh = meshio.read(entries[-1]["file"])
+    c = state.contacts
+    assert len(c) > 0 and np.any(model.body_kind[c.j] == 0) and np.any(model.body_kind[c.j] != 0)
+    fn = mesh.cell_data["normal_force"][0]
+    np.testing.assert_allclose(fn, c.normal_force, rtol=1e-12, atol=0.0)
+    np.testing.assert_allclose(fn, normal_forces[-1], rtol=1e-12, atol=0.0)
+    assert mesh.cells[0].type == "line" and len(mesh.cells[0].data) == len(c)
+    # lines start at sphere i; end at sphere j, or at the contact point on a wall
+    p = mesh.points[mesh.cells[0].data]
+    np.testing.assert_array_equal(p[:, 0], state.position[c.i])
+    wall = model.body_kind[c.j] != 0
+    np.testing.assert_array_equal(p[~wall, 1], state.position[c.j[~wall]])
+    np.testing.assert_array_equal(p[wall, 1], c.point[wall])
+
+
+def test_writer_rejects_bad_every(tmp_path):
+    with pytest.raises(ValueError, match="every"):
+        SeriesWriter(tmp_path, every=0)
+
+
+def test_import_workbench_is_cheap():
+    code = ("import sys, workbench; "
+            "heavy = [m for m in ('vtk', 'pyvista', 'vtkmodules', 'meshio', 'matplotlib') "
+            "if m in sys.modules]; assert not heavy, heavy; "
+            "workbench.series; assert 'vtk' not in sys.modules and 'pyvista' not in sys.modules")
+    subprocess.run([sys.executable, "-c", code], check=True)

@@ -56,8 +56,9 @@ class ContactBuffers:
         Friction coefficient of the contact's law.
     ri, rj : (cap,) float64 [m]
         Lever arms (radii) of i and j (0 for walls).
-    w : (cap, 3) float64 [1/kg]
-        Diagonal of the Delassus block W_αα = H_αᵀ M⁻¹ H_α in (n, t, s).
+    w : (cap, 4) float64
+        W_nn, W_tt [1/kg] (diagonal of the Delassus block W_αα = H_αᵀ M⁻¹ H_α in (n, t, s),
+        W_ss = W_tt) and their inverses [kg] (0 when both bodies are immobile).
     gterm : (cap,) float64 [m/s]
         max(gap, 0)/h, the gap term of the velocity Signorini condition.
     impulse : (cap, 3) float64 [N·s]
@@ -67,12 +68,13 @@ class ContactBuffers:
     _FIELDS = {
         "i": (np.int32, ()), "j": (np.int32, ()), "sub": (np.int8, ()), "key": (np.int64, ()),
         "frame": (np.float64, (9,)), "gap": (np.float64, ()), "mu": (np.float64, ()),
-        "ri": (np.float64, ()), "rj": (np.float64, ()), "w": (np.float64, (3,)),
+        "ri": (np.float64, ()), "rj": (np.float64, ()), "w": (np.float64, (4,)),
         "gterm": (np.float64, ()), "impulse": (np.float64, (3,)),
     }
 
     def __init__(self, cap: int):
         self.count = 0
+        self.n_pair = 0  # the first n_pair contacts are sphere–sphere, the rest sphere–wall
         self.allocate(cap)
 
     def allocate(self, cap: int) -> None:

@@ -51,7 +51,7 @@ def detect(model, state) -> bool:
         rebuilt = True
     c = state.contacts_buf
     while True:
-        k = narrowphase(state.position, state.vel6, model.body_radius, model.body_kind,
+        k, n_pair = narrowphase(state.position, state.vel6, model.body_radius, model.body_kind,
                         model.body_group, model.body_axis, model.body_height, model.body_caps,
                         model.pair_law, model.law_param, state.pairs, state.n_pairs,
                         model.sphere_ids, model.wall_ids, o.alert, h,
@@ -60,4 +60,5 @@ def detect(model, state) -> bool:
             break
         c.allocate(int(k * 1.3) + 64)
     c.count = k
+    c.n_pair = n_pair
     return rebuilt

@@ -121,8 +121,9 @@ def narrowphase(pos, vel6, radius, kind, group, axis, height, caps, pair_law, la
 
     Returns
     -------
-    int
-        Number of active contacts; if above the capacity the caller grows and retries.
+    (int, int)
+        Number of active contacts (if above the capacity the caller grows and retries) and
+        how many of them, first in the buffers, are sphere–sphere.
     """
     cap = o_i.shape[0]
     nb = pos.shape[0]
@@ -154,6 +155,7 @@ def narrowphase(pos, vel6, radius, kind, group, axis, height, caps, pair_law, la
         _emit(k, cap, i, j, 0, nb, nx, ny, nz, gap, law_param[law, 0], ri, rj,
               o_i, o_j, o_sub, o_key, o_frame, o_gap, o_mu, o_ri, o_rj)
         k += 1
+    n_pair = k
     for a in range(sphere_ids.shape[0]):
         i = sphere_ids[a]
         x = pos[i, 0]
@@ -181,4 +183,4 @@ def narrowphase(pos, vel6, radius, kind, group, axis, height, caps, pair_law, la
                 _emit(k, cap, i, w, sub, nb, nx, ny, nz, gap, law_param[law, 0], r, 0.0,
                       o_i, o_j, o_sub, o_key, o_frame, o_gap, o_mu, o_ri, o_rj)
                 k += 1
-    return k
+    return k, n_pair

@@ -11,7 +11,7 @@ from numba import njit
 
 
 @njit(cache=True, inline="always")
-def coulomb(fn, ft, fs, wn, wt, mu):
+def coulomb(fn, ft, fs, iwn, iwt, mu):
     """Signorini + 3D Coulomb local problem with a diagonal Delassus block.
 
     Solves, for the impulse p = (p_n, p_t, p_s) [N·s] and the end-of-step local velocity
@@ -33,8 +33,8 @@ def coulomb(fn, ft, fs, wn, wt, mu):
     ----------
     fn, ft, fs : float [m/s]
         Local free velocity (normal part includes max(g_m, 0)/h).
-    wn, wt : float [1/kg]
-        Normal and tangential diagonal of W_αα.
+    iwn, iwt : float [kg]
+        Inverses of the normal and tangential diagonal of W_αα.
     mu : float [-]
 
     Returns
@@ -43,9 +43,9 @@ def coulomb(fn, ft, fs, wn, wt, mu):
     """
     if fn >= 0.0:
         return 0.0, 0.0, 0.0
-    pn = -fn / wn
-    pt = -ft / wt
-    ps = -fs / wt
+    pn = -fn * iwn
+    pt = -ft * iwt
+    ps = -fs * iwt
     lim = mu * pn
     nt2 = pt * pt + ps * ps
     if nt2 > lim * lim:

@@ -23,9 +23,13 @@ from ..model import DYN_INV_INERTIA, DYN_INV_MASS, DYN_LINE, DYN_LX, DYN_LY, DYN
 from .local import coulomb
 
 
-@njit(cache=True)
-def _apply(i, j, ri, rj, px, py, pz, pt, ps, tx, ty, tz, sx, sy, sz, body_dyn, vel6):
-    """Add the impulse (global P, local tangential pt, ps) to body i and -P to body j."""
+@njit(cache=True, inline="always")
+def _apply(i, j, ri, rj, px, py, pz, pt, ps, tx, ty, tz, sx, sy, sz, body_dyn, vel6, line_j):
+    """Add the impulse (global P, local tangential pt, ps) to body i and -P to body j.
+
+    ``line_j`` (a compile-time constant at each call site) says whether j may be a LINE
+    body (a force- or pressure-driven wall), which moves along its line only.
+    """
     # rotation: ω_i += I_i⁻¹ (a_i × P), a_i = -r_i n  ->  -r_i/I_i (pt s - ps t); same sign on j
     qx = pt * sx - ps * tx
     qy = pt * sy - ps * ty
@@ -39,7 +43,7 @@ def _apply(i, j, ri, rj, px, py, pz, pt, ps, tx, ty, tz, sx, sy, sz, body_dyn, v
     vel6[i, 4] += ci * qy
     vel6[i, 5] += ci * qz
     im = body_dyn[j, DYN_INV_MASS]
-    if body_dyn[j, DYN_LINE] != 0.0:
+    if line_j and body_dyn[j, DYN_LINE] != 0.0:
         lx = body_dyn[j, DYN_LX]
         ly = body_dyn[j, DYN_LY]
         lz = body_dyn[j, DYN_LZ]
@@ -93,9 +97,11 @@ def prepare(n, c_i, c_j, key, frame, gap, ri, rj, w, gterm, impulse, body_dyn, v
         wn = imi * _line_factor(body_dyn, i, nx, ny, nz) + imj * _line_factor(body_dyn, j, nx, ny, nz)
         wt = imi * _line_factor(body_dyn, i, tx, ty, tz) + imj * _line_factor(body_dyn, j, tx, ty, tz)
         ws = imi * _line_factor(body_dyn, i, sx, sy, sz) + imj * _line_factor(body_dyn, j, sx, sy, sz)
+        wt = max(wt, ws) + rot
         w[a, 0] = wn
-        w[a, 1] = max(wt, ws) + rot
-        w[a, 2] = w[a, 1]
+        w[a, 1] = wt
+        w[a, 2] = 1.0 / wn if wn > 0.0 else 0.0
+        w[a, 3] = 1.0 / wt if wt > 0.0 else 0.0
         g = gap[a]
         gterm[a] = g / h if g > 0.0 else 0.0
         impulse[a, 0] = 0.0
@@ -125,71 +131,90 @@ def prepare(n, c_i, c_j, key, frame, gap, ri, rj, w, gterm, impulse, body_dyn, v
                 impulse[a, 1] = pt
                 impulse[a, 2] = ps
                 _apply(i, j, ri[a], rj[a], pn * nx + pt * tx + ps * sx, pn * ny + pt * ty + ps * sy,
-                       pn * nz + pt * tz + ps * sz, pt, ps, tx, ty, tz, sx, sy, sz, body_dyn, vel6)
+                       pn * nz + pt * tz + ps * sz, pt, ps, tx, ty, tz, sx, sy, sz, body_dyn, vel6,
+                       True)
                 hits += 1
     return hits
 
 
+@njit(cache=True, inline="always")
+def _contact(a, c_i, c_j, frame, w, gterm, mu, ri, rj, impulse, body_dyn, vel6, relax, line_j):
+    """Solve contact ``a`` given the others (one Gauss–Seidel update); returns its two
+    terms of the Quad norm, (‖W Δp‖², ‖W p‖²)."""
+    wn = w[a, 0]
+    if wn <= 0.0:  # both bodies immobile
+        return 0.0, 0.0
+    wt = w[a, 1]
+    i = c_i[a]
+    j = c_j[a]
+    nx = frame[a, 0]
+    ny = frame[a, 1]
+    nz = frame[a, 2]
+    tx = frame[a, 3]
+    ty = frame[a, 4]
+    tz = frame[a, 5]
+    sx = frame[a, 6]
+    sy = frame[a, 7]
+    sz = frame[a, 8]
+    r_i = ri[a]
+    r_j = rj[a]
+    dvx = vel6[i, 0] - vel6[j, 0]
+    dvy = vel6[i, 1] - vel6[j, 1]
+    dvz = vel6[i, 2] - vel6[j, 2]
+    ox = r_i * vel6[i, 3] + r_j * vel6[j, 3]
+    oy = r_i * vel6[i, 4] + r_j * vel6[j, 4]
+    oz = r_i * vel6[i, 5] + r_j * vel6[j, 5]
+    # local velocity u = H^T v: u_t = t·Δv - s·Ω, u_s = s·Δv + t·Ω (Ω = r_i ω_i + r_j ω_j)
+    un = nx * dvx + ny * dvy + nz * dvz
+    ut = tx * dvx + ty * dvy + tz * dvz - (sx * ox + sy * oy + sz * oz)
+    us = sx * dvx + sy * dvy + sz * dvz + (tx * ox + ty * oy + tz * oz)
+    pn0 = impulse[a, 0]
+    pt0 = impulse[a, 1]
+    ps0 = impulse[a, 2]
+    pn, pt, ps = coulomb(un - wn * pn0 + gterm[a], ut - wt * pt0, us - wt * ps0,
+                         w[a, 2], w[a, 3], mu[a])
+    # relaxation p <- p0 + ω (p - p0), branch-free (a convex combination stays in the cone)
+    dpn = relax * (pn - pn0)
+    dpt = relax * (pt - pt0)
+    dps = relax * (ps - ps0)
+    pn = pn0 + dpn
+    pt = pt0 + dpt
+    ps = ps0 + dps
+    impulse[a, 0] = pn
+    impulse[a, 1] = pt
+    impulse[a, 2] = ps
+    _apply(i, j, r_i, r_j, dpn * nx + dpt * tx + dps * sx, dpn * ny + dpt * ty + dps * sy,
+           dpn * nz + dpt * tz + dps * sz, dpt, dps, tx, ty, tz, sx, sy, sz, body_dyn, vel6, line_j)
+    return ((wn * dpn) ** 2 + (wt * dpt) ** 2 + (wt * dps) ** 2,
+            (wn * pn) ** 2 + (wt * pt) ** 2 + (wt * ps) ** 2)
+
+
 @njit(cache=True)
-def sweep(n, c_i, c_j, frame, w, gterm, mu, ri, rj, impulse, body_dyn, vel6, relax):
+def sweep(n, n_pair, c_i, c_j, frame, w, gterm, mu, ri, rj, impulse, body_dyn, vel6, relax):
     """One Gauss–Seidel sweep over the ``n`` contacts; returns (Σ‖WΔp‖², Σ‖Wp‖²).
 
+    The first ``n_pair`` contacts are sphere–sphere (no driven wall involved), the others
+    sphere–wall: two loops, so that the sphere–sphere loop carries no driven-wall branch.
     Hot loop: scalar arithmetic on contiguous arrays only (no temporaries).
     """
     num = 0.0
     den = 0.0
-    for a in range(n):
-        wn = w[a, 0]
-        if wn <= 0.0:
-            continue
-        wt = w[a, 1]
-        i = c_i[a]
-        j = c_j[a]
-        nx = frame[a, 0]
-        ny = frame[a, 1]
-        nz = frame[a, 2]
-        tx = frame[a, 3]
-        ty = frame[a, 4]
-        tz = frame[a, 5]
-        sx = frame[a, 6]
-        sy = frame[a, 7]
-        sz = frame[a, 8]
-        r_i = ri[a]
-        r_j = rj[a]
-        dvx = vel6[i, 0] - vel6[j, 0]
-        dvy = vel6[i, 1] - vel6[j, 1]
-        dvz = vel6[i, 2] - vel6[j, 2]
-        ox = r_i * vel6[i, 3] + r_j * vel6[j, 3]
-        oy = r_i * vel6[i, 4] + r_j * vel6[j, 4]
-        oz = r_i * vel6[i, 5] + r_j * vel6[j, 5]
-        # local velocity u = H^T v: u_t = t·Δv - s·Ω, u_s = s·Δv + t·Ω (Ω = r_i ω_i + r_j ω_j)
-        un = nx * dvx + ny * dvy + nz * dvz
-        ut = tx * dvx + ty * dvy + tz * dvz - (sx * ox + sy * oy + sz * oz)
-        us = sx * dvx + sy * dvy + sz * dvz + (tx * ox + ty * oy + tz * oz)
-        pn0 = impulse[a, 0]
-        pt0 = impulse[a, 1]
-        ps0 = impulse[a, 2]
-        pn, pt, ps = coulomb(un - wn * pn0 + gterm[a], ut - wt * pt0, us - wt * ps0, wn, wt, mu[a])
-        if relax != 1.0:
-            pn = relax * pn + (1.0 - relax) * pn0
-            pt = relax * pt + (1.0 - relax) * pt0
-            ps = relax * ps + (1.0 - relax) * ps0
-        dpn = pn - pn0
-        dpt = pt - pt0
-        dps = ps - ps0
-        impulse[a, 0] = pn
-        impulse[a, 1] = pt
-        impulse[a, 2] = ps
-        num += (wn * dpn) ** 2 + (wt * dpt) ** 2 + (wt * dps) ** 2
-        den += (wn * pn) ** 2 + (wt * pt) ** 2 + (wt * ps) ** 2
-        _apply(i, j, r_i, r_j, dpn * nx + dpt * tx + dps * sx, dpn * ny + dpt * ty + dps * sy,
-               dpn * nz + dpt * tz + dps * sz, dpt, dps, tx, ty, tz, sx, sy, sz, body_dyn, vel6)
+    for a in range(n_pair):
+        x, y = _contact(a, c_i, c_j, frame, w, gterm, mu, ri, rj, impulse, body_dyn, vel6, relax,
+                        False)
+        num += x
+        den += y
+    for a in range(n_pair, n):
+        x, y = _contact(a, c_i, c_j, frame, w, gterm, mu, ri, rj, impulse, body_dyn, vel6, relax,
+                        True)
+        num += x
+        den += y
     return num, den
 
 
 @njit(cache=True)
-def iterate(n, c_i, c_j, frame, w, gterm, mu, ri, rj, impulse, body_dyn, vel6, relax, tol,
-            max_iter):
+def iterate(n, n_pair, c_i, c_j, frame, w, gterm, mu, ri, rj, impulse, body_dyn, vel6, relax,
+            tol, max_iter):
     """Sweep until the Quad residual is below ``tol`` or ``max_iter`` sweeps are done.
 
     Returns ``(iterations, residual)``.
@@ -198,7 +223,9 @@ def iterate(n, c_i, c_j, frame, w, gterm, mu, ri, rj, impulse, body_dyn, vel6, r
         return 0, 0.0
     res = 0.0
     for it in range(max_iter):
-        num, den = sweep(n, c_i, c_j, frame, w, gterm, mu, ri, rj, impulse, body_dyn, vel6, relax)
+        num, den = sweep(n, n_pair, c_i, c_j, frame, w, gterm, mu, ri, rj, impulse, body_dyn, vel6,
+                         relax)
+        # (wire links join this iteration here, after the contacts: wire-laws issue)
         res = np.sqrt(num / den) if den > 0.0 else 0.0
         if res < tol:
             return it + 1, res
@@ -235,7 +262,7 @@ def solve(model, state):
     n = c.count
     prepare(n, c.i, c.j, c.key, c.frame, c.gap, c.ri, c.rj, c.w, c.gterm, c.impulse,
             model.body_dyn, state.vel6, state.warm_key, state.warm_impulse, o.dt)
-    it, res = iterate(n, c.i, c.j, c.frame, c.w, c.gterm, c.mu, c.ri, c.rj, c.impulse,
+    it, res = iterate(n, c.n_pair, c.i, c.j, c.frame, c.w, c.gterm, c.mu, c.ri, c.rj, c.impulse,
                       model.body_dyn, state.vel6, o.relax, o.tol, o.max_iter)
     state.warm_key, state.warm_impulse = warm_store(n, c.key, c.frame, c.impulse)
     return int(it), float(res)

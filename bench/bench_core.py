@@ -242,21 +242,20 @@ def time_sweeps(model, state, reps: int = 11, target_s: float = 0.03) -> dict:
     one = max(time.perf_counter() - t, 1e-7)
     k = max(3, int(target_s / one))
 
-    def run_ours():
+    def timed(one_sweep):
+        """k sweeps from the same starting copies: (wall, cpu) seconds."""
         v, p = v0.copy(), p0.copy()
         c0 = time.thread_time()
         t0 = time.perf_counter()
         for _ in range(k):
-            sweep(*oargs, p, bd, v, relax)
+            one_sweep(p, v)
         return time.perf_counter() - t0, time.thread_time() - c0
 
+    def run_ours():
+        return timed(lambda p, v: sweep(*oargs, p, bd, v, relax))
+
     def run_yard():
-        v, p = v0.copy(), p0.copy()
-        c0 = time.thread_time()
-        t0 = time.perf_counter()
-        for _ in range(k):
-            yard_sweep(*args, p, im, ii, v)
-        return time.perf_counter() - t0, time.thread_time() - c0
+        return timed(lambda p, v: yard_sweep(*args, p, im, ii, v))
 
     run_ours()  # warm caches and branch predictors
     run_yard()

@@ -12,13 +12,25 @@ Contact laws (between bodies that touch):
     Signorini unilateral contact (Eq. 6, at velocity level with the gap prediction of
     the θ-method) with 3D Coulomb friction ‖p_t‖ ≤ μ p_n.  ``mu = 0`` is frictionless.
 
-Wire laws (point–point links between consecutive beads, Eq. 7–15) belong to the wire
-issue; their codes are reserved here so that contacts and links share one table.
+Wire laws (point–point links between consecutive beads of :meth:`Scene.add_wire`, normal
+direction only, no tangential reaction; Eq. 7–15).  With L = g_ref = g(0)/(1+ε₀) the
+reference length (Eq. 7; ε₀ > 0 starts the wire in tension), k the stiffness [N] (force per
+unit strain) and T the tension [N] (positive in tension):
+
+``RigidRod()``                       g = L, T of any sign (Eq. 7, 9)
+``ElasticRod(stiffness, prestrain)``  T = k (g − L)/L, any sign (Eq. 10-11)
+``RigidWire()``                      g <= L, T >= 0, T (L − g) = 0 (Eq. 12-13)
+``ElasticWire(stiffness, prestrain)`` T = k max(g − L, 0)/L (Eq. 14-15)
+``BrittleElasticWire(stiffness, prestrain, max_tension)``
+    an elastic wire whose link breaks for good once T exceeds ``max_tension``.
+
+The rigid laws also take ``prestrain`` (their reference length is then g(0)/(1+ε₀)).
 """
 from __future__ import annotations
 
 from typing import ClassVar
 
+import numpy as np
 from pydantic import BaseModel, ConfigDict, Field
 
 #: Law codes seen by the kernels.
@@ -66,5 +78,76 @@ class Coulomb(Law):
         return (self.mu, 0.0, 0.0, 0.0)
 
 
-__all__ = ["Law", "Coulomb", "COULOMB", "RIGID_ROD", "ELASTIC_ROD", "RIGID_WIRE",
+class WireLaw(Law):
+    """Base of the point–point wire laws (Eq. 7-15): parameter row
+    (stiffness [N] (inf = rigid), prestrain ε₀ [-], max_tension [N] (inf = unbreakable),
+    unilateral flag (1 = wire: tension only, 0 = rod: any sign))."""
+
+    prestrain: float = Field(0.0, gt=-1.0, allow_inf_nan=False,
+                             description="ε₀ of g_ref = g(0)/(1+ε₀) [-], > -1")
+    unilateral: ClassVar[bool]
+
+    @property
+    def stiffness_value(self) -> float:
+        return float(getattr(self, "stiffness", np.inf))
+
+    def params(self) -> tuple[float, ...]:
+        return (self.stiffness_value, self.prestrain, float(getattr(self, "max_tension", np.inf)),
+                1.0 if self.unilateral else 0.0)
+
+
+class RigidRod(WireLaw):
+    """Bilateral rigid link: g = g_ref, tension of any sign (Eq. 7, 9)."""
+
+    code: ClassVar[int] = RIGID_ROD
+    unilateral: ClassVar[bool] = False
+
+
+class ElasticRod(WireLaw):
+    """Bilateral elastic link: T = k (g − g_ref)/g_ref, any sign (Eq. 10-11).
+
+    Parameters
+    ----------
+    stiffness : float [N], > 0 (force per unit strain)
+    prestrain : float [-], > -1
+    """
+
+    code: ClassVar[int] = ELASTIC_ROD
+    unilateral: ClassVar[bool] = False
+    stiffness: float = Field(gt=0.0, allow_inf_nan=False, description="k [N], > 0")
+
+
+class RigidWire(WireLaw):
+    """Unilateral rigid link: g <= g_ref, T >= 0, complementary (Eq. 12-13)."""
+
+    code: ClassVar[int] = RIGID_WIRE
+    unilateral: ClassVar[bool] = True
+
+
+class ElasticWire(WireLaw):
+    """Unilateral elastic link: T = k max(g − g_ref, 0)/g_ref (Eq. 14-15).
+
+    Parameters
+    ----------
+    stiffness : float [N], > 0
+    prestrain : float [-], > -1
+    """
+
+    code: ClassVar[int] = ELASTIC_WIRE
+    unilateral: ClassVar[bool] = True
+    stiffness: float = Field(gt=0.0, allow_inf_nan=False, description="k [N], > 0")
+
+
+class BrittleElasticWire(ElasticWire):
+    """Elastic wire whose link breaks for good when its tension exceeds ``max_tension``.
+
+    The break is decided at the end of a step on the step's converged tension; from the
+    next step on the link carries nothing and its two beads touch like any two spheres.
+    """
+
+    max_tension: float = Field(gt=0.0, allow_inf_nan=False, description="[N], > 0")
+
+
+__all__ = ["Law", "Coulomb", "WireLaw", "RigidRod", "ElasticRod", "RigidWire", "ElasticWire",
+           "BrittleElasticWire", "COULOMB", "RIGID_ROD", "ELASTIC_ROD", "RIGID_WIRE",
            "ELASTIC_WIRE", "N_PARAM"]

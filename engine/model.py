@@ -129,6 +129,20 @@ class Model:
     laws : tuple of Law
         The law objects, index-aligned with ``law_code``.
     drives : tuple of Drive
+    link_i, link_j : (nl,) int32
+        Wire links (Eq. 7-15) from bead i to bead j = the next bead of its wire.
+    link_law : (nl,) int16
+        Law code of each link (:mod:`engine.laws`).
+    link_ref_length : (nl,) float64 [m]
+        g_ref = g(0)/(1+ε₀) (Eq. 7), g(0) the initial centre distance.
+    link_stiffness : (nl,) float64 [N]
+        k (force per unit strain); ``inf`` for the rigid laws.
+    link_max_tension : (nl,) float64 [N]
+        Tension that breaks the link for good; ``inf`` if unbreakable.
+    link_unilateral : (nl,) int8
+        1 for wires (tension only), 0 for rods (any sign).
+    body_next : (nb,) int32
+        The bead linked after each bead (-1 if none); linked pairs get no contact.
     options : Options
     """
 
@@ -151,6 +165,14 @@ class Model:
     law_param: np.ndarray
     laws: tuple
     drives: tuple
+    link_i: np.ndarray
+    link_j: np.ndarray
+    link_law: np.ndarray
+    link_ref_length: np.ndarray
+    link_stiffness: np.ndarray
+    link_max_tension: np.ndarray
+    link_unilateral: np.ndarray
+    body_next: np.ndarray
     options: Options
 
     def __post_init__(self):
@@ -169,6 +191,10 @@ class Model:
     @property
     def n_walls(self) -> int:
         return int(self.wall_ids.shape[0])
+
+    @property
+    def n_links(self) -> int:
+        return int(self.link_i.shape[0])
 
     def group_id(self, name: str) -> int:
         """Index of group ``name``; ``ValueError`` if unknown."""

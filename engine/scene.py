@@ -86,6 +86,7 @@ class Scene:
         self._fixed: set[int] = set()
         self._drives: dict[int, Drive] = {}
         self._drive_mass: dict[int, float] = {}
+        self._links: list[tuple[int, int, object]] = []  # (i, j, law)
 
     # -- bodies ------------------------------------------------------------------------------
     def _group_index(self, group) -> int:
@@ -142,6 +143,49 @@ class Scene:
             self._vel.append(v[k].copy())
             self._spin.append(w[k].copy())
         return np.arange(first, first + n, dtype=np.int32)
+
+    def add_wire(self, centers, radius, density, group: str = "wire", law=None,
+                 closed: bool = False) -> np.ndarray:
+        """Add a wire: a chain of beads (spheres) linked i -> i+1 by a wire law (Eq. 7-15).
+
+        Parameters
+        ----------
+        centers : (n, 3) [m], n >= 2
+            Bead centres in order along the wire.
+        radius : float [m], > 0
+            Bead radius (the beads touch sand, walls and other beads like spheres).
+        density : float [kg/m³], > 0
+            Bead density: the wire mass is the sum of the bead masses.
+        group : str
+        law : engine.laws.WireLaw
+            ``RigidRod()``, ``ElasticRod(k, ε₀)``, ``RigidWire()``, ``ElasticWire(k, ε₀)`` or
+            ``BrittleElasticWire(k, ε₀, max_tension)``.  Each link's reference length is
+            g_ref = g(0)/(1+ε₀) with g(0) its initial centre distance (Eq. 7).
+        closed : bool
+            Also link the last bead to the first.
+
+        Returns
+        -------
+        (n,) int32 bead ids.  Linked beads get no contact with each other.
+        """
+        if not isinstance(law, _laws.WireLaw):
+            raise ValueError(f"law must be a wire law (RigidRod, ElasticRod, RigidWire, "
+                             f"ElasticWire, BrittleElasticWire), got {law!r}")
+        c = _finite_array(centers, "centers", (3,))
+        if c.shape[0] < 2:
+            raise ValueError(f"a wire needs at least 2 beads, got {c.shape[0]}")
+        r = _positive(radius, "radius", "[m]")
+        nxt = np.roll(c, -1, axis=0) if closed else c[1:]
+        d = np.linalg.norm(c[:len(nxt)] - nxt, axis=1)
+        bad = np.flatnonzero(d < 2 * r * (1 - OVERLAP_TOLERANCE))
+        if bad.size:
+            raise ValueError(f"wire beads overlap their neighbour by more than "
+                             f"{OVERLAP_TOLERANCE:.0%} of the radius (centre distance < "
+                             f"{2 * r * (1 - OVERLAP_TOLERANCE):.6g} m) at links {bad[:10].tolist()}")
+        ids = self.add_spheres(c, r, density, group=group)
+        for k in range(len(nxt)):
+            self._links.append((int(ids[k]), int(ids[(k + 1) % len(ids)]), law))
+        return ids
 
     def _add_wall(self, kind, point, axis, radius, height, caps, group) -> int:
         g = self._group_index(group)
@@ -353,7 +397,8 @@ class Scene:
             grp = np.zeros(pos.shape[0], np.int16)
             out = np.zeros((4 * sphere_ids.size + 64, 2), np.int32)
             while True:
-                n = build_pairs(pos, radius, grp, allpairs, sphere_ids.astype(np.int32), 0.0, out)
+                n = build_pairs(pos, radius, grp, allpairs, -np.ones(pos.shape[0], np.int32),
+                                sphere_ids.astype(np.int32), 0.0, out)
                 if n <= out.shape[0]:
                     break
                 out = np.zeros((int(1.3 * n) + 64, 2), np.int32)
@@ -452,6 +497,12 @@ class Scene:
         caps = np.asarray(self._caps, np.int8)
         self._check_overlaps(pos, radius, kind, axis, height, caps, sphere_ids)
 
+        link_i = np.asarray([a for a, _, _ in self._links], np.int32)
+        link_j = np.asarray([b for _, b, _ in self._links], np.int32)
+        lp = np.asarray([law.params() for _, _, law in self._links], float).reshape(-1, _laws.N_PARAM)
+        g0 = np.linalg.norm(pos[link_i] - pos[link_j], axis=1) if len(self._links) else np.zeros(0)
+        body_next = -np.ones(nb, np.int32)
+        body_next[link_i] = link_j
         inertia = np.full(nb, np.inf)
         inertia[sphere_ids] = 0.4 * mass[sphere_ids] * radius[sphere_ids] ** 2
         body_dyn = np.zeros((nb, 8))
@@ -468,8 +519,16 @@ class Scene:
             sphere_ids=sphere_ids, wall_ids=np.flatnonzero(kind != SPHERE).astype(np.int32),
             group_names=tuple(names), pair_law=pair_law, law_code=law_code, law_param=law_param,
             laws=law_objs, drives=tuple(self._drives[b] for b in sorted(self._drives)),
-            options=opts)
-        state = State(position=pos.copy(), vel6=np.ascontiguousarray(np.hstack([vel, spin])))
+            link_i=link_i, link_j=link_j,
+            link_law=np.asarray([law.code for _, _, law in self._links], np.int16),
+            link_ref_length=g0 / (1.0 + lp[:, 1]), link_stiffness=lp[:, 0].copy(),
+            link_max_tension=lp[:, 2].copy(), link_unilateral=lp[:, 3].astype(np.int8),
+            body_next=body_next, options=opts)
+        nl = link_i.shape[0]
+        state = State(position=pos.copy(), vel6=np.ascontiguousarray(np.hstack([vel, spin])),
+                      link_i=link_i.copy(), link_j=link_j.copy(), link_impulse=np.zeros(nl),
+                      link_broken=np.zeros(nl, bool), link_normal=np.zeros((nl, 3)),
+                      link_gap=np.zeros(nl), link_excluded_next=body_next.copy())
         return model, state
 
 

@@ -112,6 +112,18 @@ class State:
         Impulses of the previous step, for the warm start.
     stats : StepStats
         What the last step reported.
+    link_i, link_j : (nl,) int32
+        The beads of each wire link (copies of the model's, for :attr:`links`).
+    link_impulse : (nl,) float64 [N·s]
+        Impulse of each wire link over the last step, positive in tension (pulls i and j
+        together); also the warm start of the next step.
+    link_broken : (nl,) bool
+        Links broken for good (brittle wires).
+    link_normal : (nl, 3) float64 ; link_gap : (nl,) float64 [m]
+        Unit vector from j to i and centre distance at the θ-predicted configuration of
+        the last step.
+    link_excluded_next : (nb,) int32
+        ``model.body_next`` with broken links removed: the linked pairs that get no contact.
     last_dt : float [s]
         Length of the last step (0 before the first), to turn impulses into forces.
     time_compensation : float [s]
@@ -130,11 +142,25 @@ class State:
     warm_key: np.ndarray = field(default_factory=lambda: np.zeros(0, np.int64))
     warm_impulse: np.ndarray = field(default_factory=lambda: np.zeros((0, 3)))
     stats: StepStats = field(default_factory=StepStats)
+    link_i: np.ndarray = None
+    link_j: np.ndarray = None
+    link_impulse: np.ndarray = None
+    link_broken: np.ndarray = None
+    link_normal: np.ndarray = None
+    link_gap: np.ndarray = None
+    link_excluded_next: np.ndarray = None
     last_dt: float = 0.0
     time_compensation: float = 0.0
 
     def __post_init__(self):
         nb = self.position.shape[0]
+        for name, shape, dtype in (("link_i", (0,), np.int32), ("link_j", (0,), np.int32),
+                                   ("link_impulse", (0,), float), ("link_broken", (0,), bool),
+                                   ("link_normal", (0, 3), float), ("link_gap", (0,), float)):
+            if getattr(self, name) is None:
+                setattr(self, name, np.zeros(shape, dtype))
+        if self.link_excluded_next is None:
+            self.link_excluded_next = -np.ones(nb, np.int32)
         if self.force is None:
             self.force = np.zeros((nb, 3))
         if self.contacts_buf is None:
@@ -158,6 +184,11 @@ class State:
     @spin.setter
     def spin(self, value) -> None:
         self.vel6[:, 3:] = value
+
+    @property
+    def links(self) -> "LinksView":
+        """Wire links with their length and tension (see :class:`LinksView`)."""
+        return LinksView(self)
 
     @property
     def contacts(self) -> "ContactsView":
@@ -226,3 +257,30 @@ class ContactsView:
         if not self.dt:
             raise ValueError("contact forces need the step length; run at least one step first")
         return self.impulse[:, 0] / self.dt
+
+
+class LinksView:
+    """Read-only view of the wire links (l links), tension positive.
+
+    Attributes
+    ----------
+    i, j : (l,) int32
+        The two beads of each link (j follows i along the wire).
+    length : (l,) [m]
+        Current centre distance ‖x_i − x_j‖.
+    tension : (l,) [N]
+        Mean tension over the last step (impulse / h), > 0 in tension, < 0 for a
+        compressed rod; 0 for a broken link.
+    broken : (l,) bool
+    """
+
+    def __init__(self, state: State):
+        self.i = state.link_i.copy()
+        self.j = state.link_j.copy()
+        d = state.position[self.i] - state.position[self.j]
+        self.length = np.sqrt((d * d).sum(axis=1))
+        self.tension = state.link_impulse / state.last_dt if state.last_dt else np.zeros(len(self.i))
+        self.broken = state.link_broken.copy()
+
+    def __len__(self) -> int:
+        return int(self.i.shape[0])

@@ -21,7 +21,7 @@ def rebuild_pairs(model, state) -> None:
     margin = o.alert + o.skin
     while True:
         n = build_pairs(state.position, model.body_radius, model.body_group, model.pair_law,
-                        model.sphere_ids, margin, state.pairs)
+                        state.link_excluded_next, model.sphere_ids, margin, state.pairs)
         if n <= state.pairs.shape[0]:
             break
         state.pairs = np.zeros((int(n * 1.3) + 64, 2), np.int32)

@@ -66,7 +66,7 @@ def cell_sort(pos, ids, cell):
 
 
 @njit(cache=True)
-def build_pairs(pos, radius, group, pair_law, sphere_ids, margin, out):
+def build_pairs(pos, radius, group, pair_law, excluded_next, sphere_ids, margin, out):
     """Candidate pairs (i < j) of spheres with surface distance < ``margin`` [m].
 
     Parameters
@@ -75,6 +75,8 @@ def build_pairs(pos, radius, group, pair_law, sphere_ids, margin, out):
     radius : (nb,) float64 [m]
     group : (nb,) int16
     pair_law : (ng, ng) int16, -1 = no interaction
+    excluded_next : (nb,) int32
+        Linked bead pairs (i, excluded_next[i]) that get no contact (-1 = none).
     sphere_ids : (ns,) int32
     margin : float [m]
     out : (cap, 2) int32
@@ -125,6 +127,8 @@ def build_pairs(pos, radius, group, pair_law, sphere_ids, margin, out):
                         if j <= i:
                             continue
                         if pair_law[gi, group[j]] < 0:
+                            continue
+                        if excluded_next[i] == j or excluded_next[j] == i:
                             continue
                         ddx = pos[j, 0] - xi
                         ddy = pos[j, 1] - yi

@@ -213,19 +213,125 @@ def sweep(n, n_pair, c_i, c_j, frame, w, gterm, mu, ri, rj, impulse, body_dyn, v
 
 
 @njit(cache=True)
+def link_prepare(nl, link_i, link_j, ref_len, stiffness, broken, pos, body_dyn, vel6, impulse,
+                 normal, gap, wl, h):
+    """Per-link data of the step and warm start (Eq. 7-15 after the change of variables 8).
+
+    For link l between beads i and j at the θ-predicted configuration: n = (x_i − x_j)/g,
+    g the centre distance, W = 1/m_i + 1/m_j (point contactors at the centres: no lever
+    arm), the compliance c = L/(k h²) (0 for rigid laws) and b = (g − L)/h.  Stored in
+    ``wl[l] = (W, 1/(W + c), b)``.  The previous step's impulse is applied to the beads.
+    """
+    for l in range(nl):
+        i = link_i[l]
+        j = link_j[l]
+        dx = pos[i, 0] - pos[j, 0]
+        dy = pos[i, 1] - pos[j, 1]
+        dz = pos[i, 2] - pos[j, 2]
+        g = np.sqrt(dx * dx + dy * dy + dz * dz)
+        if g > 0.0:
+            nx = dx / g
+            ny = dy / g
+            nz = dz / g
+        else:
+            nx, ny, nz = 0.0, 0.0, 1.0
+        normal[l, 0] = nx
+        normal[l, 1] = ny
+        normal[l, 2] = nz
+        gap[l] = g
+        imi = body_dyn[i, DYN_INV_MASS]
+        imj = body_dyn[j, DYN_INV_MASS]
+        W = imi + imj
+        if broken[l] or W <= 0.0:
+            wl[l, 0] = 0.0
+            wl[l, 1] = 0.0
+            wl[l, 2] = 0.0
+            if broken[l]:
+                impulse[l] = 0.0
+            continue
+        L = ref_len[l]
+        k = stiffness[l]
+        c = L / (k * h * h) if k < np.inf else 0.0
+        wl[l, 0] = W
+        wl[l, 1] = 1.0 / (W + c)
+        wl[l, 2] = (g - L) / h
+        lam = impulse[l]
+        if lam != 0.0:
+            vel6[i, 0] -= imi * lam * nx
+            vel6[i, 1] -= imi * lam * ny
+            vel6[i, 2] -= imi * lam * nz
+            vel6[j, 0] += imj * lam * nx
+            vel6[j, 1] += imj * lam * ny
+            vel6[j, 2] += imj * lam * nz
+
+
+@njit(cache=True)
+def link_sweep(nl, link_i, link_j, normal, wl, unilateral, impulse, body_dyn, vel6, relax):
+    """One Gauss–Seidel sweep over the wire links; returns (Σ(W Δλ)², Σ(W λ)²).
+
+    Local solver of each law after the change of variables of Eq. (8): with u = n·(v_i − v_j)
+    the current normal velocity and u_f = u + W λ₀ the local free velocity (own impulse
+    removed), the impulse λ (tension positive: −λ n acts on i, +λ n on j) is
+
+    * rigid rod (Eq. 9) / elastic rod (Eq. 11): λ = (u_f + (g − L)/h) / (W + c);
+    * rigid wire (Eq. 13) / elastic wire (Eq. 15): the same, clamped to λ >= 0;
+
+    with c = L/(k h²) the compliance of the elastic laws (0 for rigid).  The rigid laws
+    then give g + h u = L (the next predicted length is the reference length); the elastic
+    ones give T = λ/h = k (g + h u − L)/L.  No tangential reaction.
+    """
+    num = 0.0
+    den = 0.0
+    for l in range(nl):
+        W = wl[l, 0]
+        if W <= 0.0:
+            continue
+        i = link_i[l]
+        j = link_j[l]
+        nx = normal[l, 0]
+        ny = normal[l, 1]
+        nz = normal[l, 2]
+        u = (nx * (vel6[i, 0] - vel6[j, 0]) + ny * (vel6[i, 1] - vel6[j, 1])
+             + nz * (vel6[i, 2] - vel6[j, 2]))
+        lam0 = impulse[l]
+        lam = (u + W * lam0 + wl[l, 2]) * wl[l, 1]
+        if unilateral[l] != 0 and lam < 0.0:
+            lam = 0.0
+        dl = relax * (lam - lam0)
+        lam = lam0 + dl
+        impulse[l] = lam
+        imi = body_dyn[i, DYN_INV_MASS] * dl
+        imj = body_dyn[j, DYN_INV_MASS] * dl
+        vel6[i, 0] -= imi * nx
+        vel6[i, 1] -= imi * ny
+        vel6[i, 2] -= imi * nz
+        vel6[j, 0] += imj * nx
+        vel6[j, 1] += imj * ny
+        vel6[j, 2] += imj * nz
+        num += (W * dl) ** 2
+        den += (W * lam) ** 2
+    return num, den
+
+
+@njit(cache=True)
 def iterate(n, n_pair, c_i, c_j, frame, w, gterm, mu, ri, rj, impulse, body_dyn, vel6, relax,
-            tol, max_iter):
-    """Sweep until the Quad residual is below ``tol`` or ``max_iter`` sweeps are done.
+            tol, max_iter, nl, link_i, link_j, l_normal, wl, l_unilateral, l_impulse):
+    """Sweep contacts then links until the Quad residual (over both) is below ``tol`` or
+    ``max_iter`` sweeps are done.  A scene without links never enters the link loop.
 
     Returns ``(iterations, residual)``.
     """
-    if n == 0:
+    if n == 0 and nl == 0:
         return 0, 0.0
     res = 0.0
     for it in range(max_iter):
         num, den = sweep(n, n_pair, c_i, c_j, frame, w, gterm, mu, ri, rj, impulse, body_dyn, vel6,
                          relax)
-        # (wire links join this iteration here, after the contacts: wire-laws issue)
+        if nl > 0:
+            lnum, lden = link_sweep(nl, link_i, link_j, l_normal, wl, l_unilateral, l_impulse,
+                                    body_dyn, vel6, relax)
+            num += lnum
+            den += lden
         res = np.sqrt(num / den) if den > 0.0 else 0.0
         if res < tol:
             return it + 1, res
@@ -260,9 +366,33 @@ def solve(model, state):
     o = model.options
     c = state.contacts_buf
     n = c.count
+    nl = model.n_links
     prepare(n, c.i, c.j, c.key, c.frame, c.gap, c.ri, c.rj, c.w, c.gterm, c.impulse,
             model.body_dyn, state.vel6, state.warm_key, state.warm_impulse, o.dt)
+    wl = _EMPTY_WL
+    if nl:
+        wl = np.empty((nl, 3))
+        link_prepare(nl, model.link_i, model.link_j, model.link_ref_length, model.link_stiffness,
+                     state.link_broken, state.position, model.body_dyn, state.vel6,
+                     state.link_impulse, state.link_normal, state.link_gap, wl, o.dt)
     it, res = iterate(n, c.n_pair, c.i, c.j, c.frame, c.w, c.gterm, c.mu, c.ri, c.rj, c.impulse,
-                      model.body_dyn, state.vel6, o.relax, o.tol, o.max_iter)
+                      model.body_dyn, state.vel6, o.relax, o.tol, o.max_iter,
+                      nl, model.link_i, model.link_j, state.link_normal, wl,
+                      model.link_unilateral, state.link_impulse)
     state.warm_key, state.warm_impulse = warm_store(n, c.key, c.frame, c.impulse)
+    if nl:
+        _break_links(model, state, o.dt)
     return int(it), float(res)
+
+
+_EMPTY_WL = np.zeros((0, 3))
+
+
+def _break_links(model, state, h: float) -> None:
+    """Brittle wires: links whose tension of this step exceeds their maximum break for good
+    (their beads then touch like any two spheres: the candidate list is rebuilt)."""
+    over = (~state.link_broken) & (state.link_impulse > model.link_max_tension * h)
+    if over.any():
+        state.link_broken |= over
+        state.link_excluded_next[model.link_i[over]] = -1
+        state.pairs_ref = None  # rebuild the candidate pairs with the freed beads

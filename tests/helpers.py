@@ -19,3 +19,24 @@ def lattice_pile(n, r, rng, box, gap=1.05):
         k += 1
     radii = r * rng.uniform(0.9, 1.1, n)
     return np.asarray(pts), radii
+
+
+def settle(model, state, steps, ids=None):
+    """Static equilibrium by kinetic damping (dynamic relaxation): run ``steps`` steps and
+    zero the velocities of bodies ``ids`` whenever their kinetic energy has just decreased
+    (a peak was passed).  Returns the kinetic energy history."""
+    from engine import step
+
+    ids = model.sphere_ids if ids is None else np.asarray(ids)
+    m = model.body_mass[ids]
+    prev = 0.0
+    history = []
+    for _ in range(steps):
+        step(model, state)
+        ke = 0.5 * float(m @ (state.velocity[ids] ** 2).sum(axis=1))
+        if ke < prev:
+            state.vel6[ids] = 0.0
+            ke = 0.0
+        prev = ke
+        history.append(ke)
+    return np.asarray(history)

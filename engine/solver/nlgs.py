@@ -220,8 +220,10 @@ def link_prepare(nl, link_i, link_j, ref_len, stiffness, broken, pos, body_dyn, 
     For link l between beads i and j at the θ-predicted configuration: n = (x_i − x_j)/g,
     g the centre distance, W = 1/m_i + 1/m_j (point contactors at the centres: no lever
     arm), the compliance c = L/(k h²) (0 for rigid laws).  Stored in
-    ``wl[l] = (W, 1/(W + c), g, L, 1/h)``.  The previous step's impulse is applied to the
-    beads.
+    ``wl[l] = (W, 1/(W + c), g, L², 1/h)``, all zero for a link that is skipped (broken, or
+    rigid between two immobile beads, whose force is undetermined).  An elastic link between
+    two immobile beads still gets its force (T = k ε).  The previous step's impulse is
+    applied to the beads.
     """
     for l in range(nl):
         i = link_i[l]
@@ -243,15 +245,14 @@ def link_prepare(nl, link_i, link_j, ref_len, stiffness, broken, pos, body_dyn, 
         imi = body_dyn[i, DYN_INV_MASS]
         imj = body_dyn[j, DYN_INV_MASS]
         W = imi + imj
-        if broken[l] or W <= 0.0:
-            for q in range(5):
-                wl[l, q] = 0.0
-            if broken[l]:
-                impulse[l] = 0.0
-            continue
         L = ref_len[l]
         k = stiffness[l]
         c = L / (k * h * h) if k < np.inf else 0.0
+        if broken[l] or W + c <= 0.0:  # broken, or rigid between two immobile beads
+            for q in range(5):
+                wl[l, q] = 0.0
+            impulse[l] = 0.0
+            continue
         wl[l, 0] = W
         wl[l, 1] = 1.0 / (W + c)
         wl[l, 2] = g
@@ -291,9 +292,10 @@ def link_sweep(nl, link_i, link_j, normal, wl, unilateral, impulse, body_dyn, ve
     num = 0.0
     den = 0.0
     for l in range(nl):
-        W = wl[l, 0]
-        if W <= 0.0:
+        iwc = wl[l, 1]
+        if iwc == 0.0:  # skipped link (see link_prepare)
             continue
+        W = wl[l, 0]
         i = link_i[l]
         j = link_j[l]
         nx = normal[l, 0]
@@ -308,7 +310,7 @@ def link_sweep(nl, link_i, link_j, normal, wl, unilateral, impulse, body_dyn, ve
         ls2 = wl[l, 3] - (wx * wx + wy * wy + wz * wz - u * u) / (ih * ih)
         ls = np.sqrt(ls2) if ls2 > 0.0 else 0.0
         lam0 = impulse[l]
-        lam = (u + W * lam0 + (wl[l, 2] - ls) * ih) * wl[l, 1]
+        lam = (u + W * lam0 + (wl[l, 2] - ls) * ih) * iwc
         if unilateral[l] != 0 and lam < 0.0:
             lam = 0.0
         dl = relax * (lam - lam0)

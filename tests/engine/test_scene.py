@@ -2,7 +2,7 @@
 import numpy as np
 import pytest
 
-from engine import Scene, laws
+from engine import Scene, laws, step
 
 
 def _base():
@@ -64,7 +64,31 @@ def _wall_penetration():
     s.compile(dt=1e-4)
 
 
+def _wire(centers=((0, 0, 0), (2.2e-3, 0, 0), (4.4e-3, 0, 0)), law=None, **kw):
+    def go():
+        Scene().add_wire(centers, radius=1e-3, density=1400.0,
+                         law=laws.RigidWire() if law is None else law, **kw)
+    return go
+
+
+def _wire_law_in_interact():
+    s = _base()
+    s.interact("sand", "sand", laws.RigidRod())
+    s.compile(dt=1e-4)
+
+
 BAD = {
+    "wire stiffness zero": (lambda: laws.ElasticWire(stiffness=0.0), r"stiffness\n.*greater than 0"),
+    "wire stiffness negative": (lambda: laws.ElasticRod(stiffness=-1.0), r"stiffness\n.*greater than 0"),
+    "wire prestrain -1": (lambda: laws.ElasticWire(stiffness=1.0, prestrain=-1.0), r"prestrain\n.*greater than -1"),
+    "wire max tension zero": (lambda: laws.BrittleElasticWire(stiffness=1.0, max_tension=0.0), r"max_tension\n.*greater than 0"),
+    "wire one bead": (_wire(centers=[[0, 0, 0]]), r"at least 2 beads, got 1"),
+    "wire bead overlap": (_wire(centers=[[0, 0, 0], [2.2e-3, 0, 0], [3.5e-3, 0, 0]]),
+                          r"overlap their neighbour by more than 1% .* at links \[1\]"),
+    "wire nan centre": (_wire(centers=[[0, 0, 0], [np.nan, 0, 0]]), r"centers must be finite.*ids \[1\]"),
+    "wire contact law": (_wire(law=laws.Coulomb(mu=0.3)), r"law must be a wire law"),
+    "wire law in interact": (_wire_law_in_interact, r"RigidRod is a wire law"),
+
     "zero radius": (_spheres(radii=0.0), r"radii must be finite and > 0 m"),
     "negative radius": (_spheres(radii=[-1e-3]), r"radii .*> 0 m.*ids \[0\]"),
     "zero density": (_spheres(density=0.0), r"density must be finite and > 0 \[kg/m³\]"),
@@ -125,3 +149,29 @@ def test_model_arrays_are_read_only_and_in_si():
     with pytest.raises(ValueError):
         model.body_radius[0] = 1.0
     assert state.velocity.base is state.vel6 and state.spin.base is state.vel6
+
+
+def test_wires_links_and_contact_exclusion():
+    """Links i -> i+1 per wire (and last -> first when closed); linked beads never get a
+    contact, other touching beads do."""
+    s = Scene(gravity=(0, 0, 0))
+    a = 2e-3  # beads of radius 1 mm touching their neighbours
+    open_w = s.add_wire([[k * a, 0, 0] for k in range(4)], radius=1e-3, density=1400.0,
+                        law=laws.RigidWire())
+    ring = [[0.05 + 0.004 * np.cos(t), 0.004 * np.sin(t), 0] for t in np.linspace(0, 2 * np.pi, 13)[:-1]]
+    closed_w = s.add_wire(ring, radius=1e-3, density=1400.0, law=laws.ElasticWire(stiffness=1.0),
+                          closed=True)
+    # a third bead touching the first wire's bead 1 from above: a real contact
+    other = s.add_spheres([[a, 0, 2e-3]], 1e-3, density=1400.0, group="sand")
+    s.interact("wire", "wire", laws.Coulomb(mu=0.3))
+    s.interact("wire", "sand", laws.Coulomb(mu=0.3))
+    model, state = s.compile(dt=1e-4)
+    li = list(zip(model.link_i.tolist(), model.link_j.tolist()))
+    assert li[:3] == [(0, 1), (1, 2), (2, 3)]
+    assert len(li) == 3 + 12 and (int(closed_w[-1]), int(closed_w[0])) in li
+    assert (int(open_w[-1]), int(closed_w[0])) not in li  # wires are not joined
+    step(model, state)
+    pairs = {tuple(sorted(p)) for p in zip(state.contacts.i.tolist(), state.contacts.j.tolist())}
+    assert not pairs & {tuple(sorted(p)) for p in li}
+    assert (int(open_w[1]), int(other[0])) in pairs
+    assert len(state.links) == 15 and np.all(state.links.tension == 0.0)

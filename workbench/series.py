@@ -10,7 +10,11 @@
   per contact, from the centre of sphere i to the centre of body j (sphere–sphere) or to
   the contact point (sphere–wall), with cell data ``normal_force`` (k,) [N] (>= 0,
   compression), ``force`` (k, 3) [N] (on i, global frame), ``i``, ``j``, ``sub`` and
-  ``wall`` (1 when j is a wall).
+  ``wall`` (1 when j is a wall);
+* ``<name>_wire_<frame>.vtu`` (PVD part 2), only for scenes with wires: one line per wire
+  link between the two bead centres, with cell data ``tension`` (l,) [N] (> 0 in
+  tension), ``broken`` (1 = broken for good), ``length`` [m] and ``ref_length`` [m] (g_ref
+  of Eq. 7).
 
 The ``<name>.pvd`` file is rewritten (atomically) after every frame, so it stays valid
 if the run is killed.  In ParaView: File > Open ``<name>.pvd``; show part 0 with the
@@ -28,7 +32,7 @@ from xml.sax.saxutils import quoteattr
 import meshio
 import numpy as np
 
-__all__ = ["SeriesWriter", "sphere_mesh", "contact_mesh", "read_pvd"]
+__all__ = ["SeriesWriter", "sphere_mesh", "contact_mesh", "wire_mesh", "read_pvd"]
 
 
 def sphere_mesh(model, state) -> meshio.Mesh:
@@ -76,6 +80,27 @@ def contact_mesh(model, state) -> meshio.Mesh | None:
             "j": [c.j.astype(np.int32)],
             "sub": [c.sub.astype(np.int32)],
             "wall": [wall.astype(np.int32)],
+        },
+    )
+
+
+def wire_mesh(model, state) -> meshio.Mesh | None:
+    """Wire links as lines between bead centres (see module doc); ``None`` without wires."""
+    links = state.links
+    k = len(links)
+    if k == 0:
+        return None
+    points = np.empty((2 * k, 3))
+    points[0::2] = state.position[links.i]
+    points[1::2] = state.position[links.j]
+    return meshio.Mesh(
+        points=points,
+        cells=[("line", np.arange(2 * k, dtype=np.int64).reshape(k, 2))],
+        cell_data={
+            "tension": [np.ascontiguousarray(links.tension, dtype=np.float64)],
+            "broken": [links.broken.astype(np.int32)],
+            "length": [np.ascontiguousarray(links.length, dtype=np.float64)],
+            "ref_length": [np.ascontiguousarray(model.link_ref_length, dtype=np.float64)],
         },
     )
 
@@ -132,6 +157,11 @@ class SeriesWriter:
             stem = f"{self.name}_contacts_{self.frames:06d}.vtu"
             meshio.write(self.out_dir / stem, lines, file_format="vtu")
             self._entries.append((t, 1, stem))
+        wire = wire_mesh(model, state)
+        if wire is not None:
+            stem = f"{self.name}_wire_{self.frames:06d}.vtu"
+            meshio.write(self.out_dir / stem, wire, file_format="vtu")
+            self._entries.append((t, 2, stem))
         self.frames += 1
         self._write_pvd()
 

@@ -103,3 +103,23 @@ def test_import_workbench_is_cheap():
             "if m in sys.modules]; assert not heavy, heavy; "
             "workbench.series; assert 'vtk' not in sys.modules and 'pyvista' not in sys.modules")
     subprocess.run([sys.executable, "-c", code], check=True)
+
+
+def test_wire_links_are_written_with_tension_and_broken_flag(tmp_path):
+    """Part 2: one line per link, tension equal to state.links.tension, broken flag."""
+    s = Scene(gravity=(0.0, 0.0, -9.81))
+    beads = s.add_wire([[0, 0, 0], [0, 0, -3e-3], [0, 0, -6e-3]], radius=1e-3, density=2000.0,
+                       law=laws.BrittleElasticWire(stiffness=1.0, max_tension=1e-4))
+    s.interact("wire", "wire", None)
+    s.fix(beads[:1])
+    model, state = s.compile(dt=1e-4)
+    writer = SeriesWriter(tmp_path, every=10, name="w")
+    run(model, state, 200, writers=[writer], progress=False)
+    wires = [e for e in read_pvd(writer.pvd_path) if e["part"] == 2]
+    assert len(wires) == 20
+    mesh = meshio.read(wires[-1]["file"])
+    lines = mesh.cells_dict["line"]
+    assert lines.shape == (2, 2)
+    np.testing.assert_array_equal(mesh.cell_data["tension"][0], state.links.tension)
+    np.testing.assert_array_equal(mesh.cell_data["broken"][0], state.links.broken.astype(int))
+    assert state.links.broken[0]  # 2 beads of 8.4e-5 N hang on link 0: it broke

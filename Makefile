@@ -25,6 +25,7 @@ demo: $(STAMP)
 ## make bench: benchmarks; print figures and write JSON under bench/results/
 bench: $(STAMP)
 	$(PY) bench/bench_core.py
+	$(PY) bench/bench_wire.py
 
 clean:
 	rm -rf $(VENV) out .pytest_cache

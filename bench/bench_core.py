@@ -99,11 +99,14 @@ def deposit_scene(nx: int, ny: int, nz: int, p: dict = DEPOSIT):
     return model, state, geom
 
 
-def packing_scene(p: dict = PACKING):
+def packing_scene(p: dict = PACKING, extra=None):
     """FCC lattice of nearly equal spheres, nearest-neighbour distance (1 - compression)
     2 r0, radii r0 (1 ± polydispersity): every lattice neighbour overlaps by 0.1-0.9 % of
     r0 (below Scene.compile's 1 % check), so all 12 neighbours are contacts.  The lattice
-    rests on the floor of a box whose four side walls touch it; gravity on."""
+    rests on the floor of a box whose four side walls touch it; gravity on.
+
+    ``extra(scene, hi)``, if given, may add bodies to the scene (box corner ``hi``) before
+    it is compiled (bench_wire.py adds a small wire above the packing)."""
     rng = np.random.default_rng(p["seed"])
     r0 = p["r0"]
     d = 2.0 * r0 * (1.0 - p["compression"])
@@ -121,6 +124,8 @@ def packing_scene(p: dict = PACKING):
     s.add_box((0.0, 0.0, 0.0), hi, group="wall")
     s.interact("sand", "sand", laws.Coulomb(mu=p["mu"]))
     s.interact("sand", "wall", laws.Coulomb(mu=p["mu"]))
+    if extra is not None:
+        extra(s, hi)
     model, state = s.compile(dt=p["dt"], theta=p["theta"], tol=p["tol"], max_iter=p["max_iter"])
     return model, state, dict(n_spheres=n, nn_distance_m=d, box_hi_m=hi.tolist())
 

@@ -141,6 +141,9 @@ class Model:
         Tension that breaks the link for good; ``inf`` if unbreakable.
     link_unilateral : (nl,) int8
         1 for wires (tension only), 0 for rods (any sign).
+    link_order : (nl,) int32
+        Order in which the NLGS visits the links: along each wire, even positions first,
+        then odd ones.
     body_next : (nb,) int32
         The bead linked after each bead (-1 if none); linked pairs get no contact.
     options : Options
@@ -172,6 +175,7 @@ class Model:
     link_stiffness: np.ndarray
     link_max_tension: np.ndarray
     link_unilateral: np.ndarray
+    link_order: np.ndarray
     body_next: np.ndarray
     options: Options
 

@@ -87,6 +87,7 @@ class Scene:
         self._drives: dict[int, Drive] = {}
         self._drive_mass: dict[int, float] = {}
         self._links: list[tuple[int, int, object]] = []  # (i, j, law)
+        self._link_pos: list[int] = []  # position of each link along its wire
 
     # -- bodies ------------------------------------------------------------------------------
     def _group_index(self, group) -> int:
@@ -185,6 +186,7 @@ class Scene:
         ids = self.add_spheres(c, r, density, group=group)
         for k in range(len(nxt)):
             self._links.append((int(ids[k]), int(ids[(k + 1) % len(ids)]), law))
+            self._link_pos.append(k)
         return ids
 
     def _add_wall(self, kind, point, axis, radius, height, caps, group) -> int:
@@ -523,6 +525,7 @@ class Scene:
             link_law=np.asarray([law.code for _, _, law in self._links], np.int16),
             link_ref_length=g0 / (1.0 + lp[:, 1]), link_stiffness=lp[:, 0].copy(),
             link_max_tension=lp[:, 2].copy(), link_unilateral=lp[:, 3].astype(np.int8),
+            link_order=np.argsort(np.asarray(self._link_pos, np.int64) % 2, kind="stable").astype(np.int32),
             body_next=body_next, options=opts)
         nl = link_i.shape[0]
         state = State(position=pos.copy(), vel6=np.ascontiguousarray(np.hstack([vel, spin])),

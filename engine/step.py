@@ -181,7 +181,11 @@ def run(model, state, steps: int, writers: Iterable = (), progress: bool = True)
     if progress:
         from tqdm.auto import tqdm
 
-        bar = tqdm(total=int(steps), unit="step", dynamic_ncols=True, leave=True)
+        import sys
+
+        tty = sys.stderr.isatty()  # in a log file, a line every 10 s instead of every 0.1 s
+        bar = tqdm(total=int(steps), unit="step", dynamic_ncols=True, leave=True,
+                   mininterval=0.1 if tty else 10.0)
     t0 = _time.perf_counter()
     total_it = 0
     try:

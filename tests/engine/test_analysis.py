@@ -1,0 +1,139 @@
+"""Weber stress (Eq. 18) and best-fit strain (Eq. 19)."""
+import numpy as np
+import pytest
+
+from engine import Scene, laws, run, step
+from engine.analysis import best_fit_strain, equivalent_stress, weber_stress
+from engine.contact import tangent_frame
+from engine.prep import Box, Cylinder, TorusCell
+from tests.helpers import G, lattice_pile
+
+
+def _hand_assembly():
+    """Spheres A (0,0,0) and B (2e-3,0,0) of radius 1e-3 touching, and a 2-bead wire far away;
+    one step, then the contact and link impulses are overwritten with known values."""
+    s = Scene(gravity=(0, 0, 0))
+    s.add_spheres([[0, 0, 0], [2e-3, 0, 0]], 1e-3, density=1000.0)
+    s.add_wire([[0, 0, 0.05], [0, 0, 0.053]], radius=1e-3, density=1000.0,
+               law=laws.ElasticWire(stiffness=1.0))
+    s.interact("sand", "sand", laws.Coulomb(mu=0.5))
+    s.interact("wire", "wire", None)
+    s.interact("wire", "sand", None)
+    model, state = s.compile(dt=1e-4)
+    step(model, state)
+    c = state.contacts_buf
+    assert c.count == 1 and (c.i[0], c.j[0]) == (0, 1)
+    h = state.last_dt
+    c.impulse[0] = (3.0 * h, 1.0 * h, -0.5 * h)  # [N·s]: f = 3 n + t − 0.5 s on sphere 0
+    state.link_impulse[0] = 2.0 * h  # 2 N of tension
+    return model, state
+
+
+def test_weber_stress_of_a_hand_built_assembly():
+    model, state = _hand_assembly()
+    x = state.position
+    n = (x[0] - x[1]) / np.linalg.norm(x[0] - x[1])
+    fr = tangent_frame(*n)
+    t, s = np.array(fr[:3]), np.array(fr[3:])
+    f = 3 * n + t - 0.5 * s
+    l_c = x[0] - x[1]
+    m = state.link_normal[0]
+    l_w = x[2] - x[3]
+    region = Box((-0.01, -0.01, -0.01), (0.01, 0.01, 0.07))
+    V = region.volume
+    sand = -np.outer(l_c, f) / V
+    wire = -np.outer(l_w, -2.0 * m) / V  # force on bead i: −T n
+    r_sand = weber_stress(model, state, region=region, part="sand")
+    r_wire = weber_stress(model, state, region=region, part="wire")
+    r_all = weber_stress(model, state, region=region)
+    np.testing.assert_allclose(r_sand.tensor, sand, rtol=0, atol=1e-12 * np.abs(sand).max())
+    np.testing.assert_allclose(r_wire.tensor, wire, rtol=0, atol=1e-12 * np.abs(wire).max())
+    np.testing.assert_allclose(r_all.tensor, r_sand.tensor + r_wire.tensor, rtol=0, atol=1e-15)
+    # signs: the compressed contact gives σ_xx < 0, the wire in tension σ_zz > 0
+    assert r_sand.tensor[0, 0] < 0 and r_wire.tensor[2, 2] > 0 and r_wire.principal[0] > 0
+    assert (r_sand.n_contacts, r_sand.n_links, r_wire.n_links) == (1, 0, 1)
+    assert r_all.mean_pressure == pytest.approx(-np.trace(r_all.tensor) / 3, rel=1e-14)
+    dev = r_all.tensor - np.trace(r_all.tensor) / 3 * np.eye(3)
+    assert r_all.equivalent == pytest.approx(np.linalg.norm(dev), rel=1e-14)
+
+
+def test_pile_at_rest_stress_is_symmetric_and_its_zz_part_integrates_to_the_weight():
+    """At rest: σ symmetric; V σ_zz = −W (z_G − z_floor) (frictionless side walls), from the
+    equilibrium of every grain (the floor carries W at z_floor, gravity acts at z_G)."""
+    rng = np.random.default_rng(7)
+    r = 1e-3
+    lo, hi = (0, 0, 0), (12e-3, 12e-3, 0.1)
+    pts, radii = lattice_pile(200, r, rng, (lo, hi), gap=1.02)
+    s = Scene(gravity=(0, 0, -G))
+    s.add_spheres(pts, radii, density=2650.0)
+    s.add_box(lo, hi, group="side")
+    s.interact("sand", "sand", laws.Coulomb(mu=0.4))
+    s.interact("sand", "side", laws.Coulomb(mu=0.0))
+    model, state = s.compile(dt=2e-4, tol=1e-8, max_iter=5000)
+    run(model, state, 1500, progress=False)
+    ids = model.sphere_ids
+    m = model.body_mass[ids]
+    W = m.sum() * G
+    zg = m @ state.position[ids, 2] / m.sum()
+    top = (state.position[ids, 2] + radii).max()
+    res = weber_stress(model, state, region=Box((0, 0, 0), (12e-3, 12e-3, top)))
+    sig = res.tensor
+    assert np.abs(sig - sig.T).max() < 1e-3 * np.abs(sig).max()
+    assert res.volume * sig[2, 2] == pytest.approx(-W * zg, rel=1e-3)
+    assert res.mean_pressure > 0  # compressed
+
+
+def test_weber_stress_bad_input():
+    model, state = _hand_assembly()
+    with pytest.raises(ValueError, match="part must be one of"):
+        weber_stress(model, state, part="sandwich")
+    with pytest.raises(ValueError, match="contains no sphere centre"):
+        weber_stress(model, state, region=Box((1, 1, 1), (2, 2, 2)))
+    fresh = state.copy()
+    fresh.last_dt = 0.0  # as before the first step
+    with pytest.raises(ValueError, match="run at least one step"):
+        weber_stress(model, fresh)
+
+
+@pytest.mark.parametrize("gradient", [
+    [[1e-3, 2e-4, 0], [2e-4, -5e-4, 1e-4], [0, 1e-4, 3e-4]],     # symmetric (rotation-free)
+    [[0, -1e-3, 0], [1e-3, 0, 0], [0, 0, 0]],                     # pure rotation
+    [[2e-3, 5e-4, -1e-4], [0, 1e-3, 0], [3e-4, 0, -2e-3]],        # general
+])
+def test_best_fit_strain_recovers_an_affine_field(gradient):
+    rng = np.random.default_rng(0)
+    x0 = rng.uniform(-1e-2, 1e-2, (50, 3))
+    E = np.asarray(gradient)
+    x1 = x0 + x0 @ E.T + np.array([1e-3, -2e-3, 5e-4])  # affine + translation
+    r = best_fit_strain(x0, x1)
+    np.testing.assert_allclose(r.gradient, E, rtol=0, atol=1e-12)
+    np.testing.assert_allclose(r.tensor, 0.5 * (E + E.T), rtol=0, atol=1e-12)
+    assert r.volumetric == pytest.approx(np.trace(E), abs=1e-12)
+    np.testing.assert_allclose(np.trace(r.deviatoric), 0, atol=1e-15)
+
+
+def test_best_fit_strain_of_a_rigid_translation_is_zero():
+    x0 = np.random.default_rng(1).uniform(0, 1e-2, (20, 3))
+    r = best_fit_strain(x0, x0 + [3e-3, 0, -1e-3])
+    np.testing.assert_allclose(r.tensor, 0, atol=1e-15)
+
+
+def test_best_fit_strain_refuses_degenerate_sets():
+    rng = np.random.default_rng(2)
+    flat = np.column_stack([rng.uniform(0, 1, (10, 2)), np.zeros(10)])
+    with pytest.raises(ValueError, match="rank 2 < 3"):
+        best_fit_strain(flat, flat)
+    with pytest.raises(ValueError, match="at least 4 non-coplanar particles, got 3"):
+        best_fit_strain(flat, flat, ids=[0, 1, 2])
+
+
+def test_torus_cells_tile_the_cylinder():
+    cyl = Cylinder(radius=4.5e-3, height=20e-3)
+    rs = np.linspace(0, cyl.radius, 6)
+    zs = np.linspace(0, cyl.height, 9)
+    cells = [TorusCell(rs[a], rs[a + 1], zs[b], zs[b + 1]) for a in range(5) for b in range(8)]
+    assert sum(c.volume for c in cells) == pytest.approx(cyl.volume, rel=1e-14)
+    p = np.random.default_rng(3).uniform([-4.5e-3, -4.5e-3, 0], [4.5e-3, 4.5e-3, 20e-3], (2000, 3))
+    inside = cyl.contains(p)
+    counts = sum(c.contains(p).astype(int) for c in cells)
+    assert np.all(counts[inside] >= 1) and np.all(counts[~inside] == 0)

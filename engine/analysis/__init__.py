@@ -4,11 +4,20 @@
   equivalent stress ‖dev σ‖;
 * :func:`best_fit_strain` — Eq. (19), principal, volumetric and deviatoric strains.
 
-Force chains, toroidal maps, slope profiles, boundary measures and the macro-stiffness H
-come with the rest of the analysis issue.
+* :func:`force_network` — strong network, f/⟨f⟩ distribution, coordination number;
+  :func:`wall_forces` — force on each wall;
+* :func:`toroidal_map` — Weber stress on (r, z) torus cells (Fig. 13c);
+* :func:`macro_stiffness` — H, the slope of the linear part of (ε_zz, σ_w^eq) (Table 2).
+
+Slope profiles (Fig. 10) and strains from wall positions or outer particles come with the
+rest of the analysis issue.
 """
+from .curves import MacroStiffness, macro_stiffness
+from .network import ForceNetwork, force_network, wall_forces
 from .strain import StrainResult, best_fit_strain
 from .stress import StressResult, equivalent_stress, principal, weber_stress
+from .torus import ToroidalMap, toroidal_map
 
 __all__ = ["weber_stress", "equivalent_stress", "principal", "StressResult", "best_fit_strain",
-           "StrainResult"]
+           "StrainResult", "force_network", "ForceNetwork", "wall_forces", "toroidal_map",
+           "ToroidalMap", "macro_stiffness", "MacroStiffness"]

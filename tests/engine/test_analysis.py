@@ -137,3 +137,77 @@ def test_torus_cells_tile_the_cylinder():
     inside = cyl.contains(p)
     counts = sum(c.contains(p).astype(int) for c in cells)
     assert np.all(counts[inside] >= 1) and np.all(counts[~inside] == 0)
+
+
+def test_force_network_of_a_column():
+    """10 spheres stacked on a floor: 9 sphere–sphere contacts carrying the weight above."""
+    from engine.analysis import force_network, wall_forces
+
+    r = 5e-3
+    s = Scene(gravity=(0, 0, -G))
+    floor = s.add_plane(group="floor")
+    s.add_spheres([[0, 0, r + 2 * r * k] for k in range(10)], r, density=2650.0)
+    s.interact("sand", "sand", laws.Coulomb(mu=0.5))
+    s.interact("sand", "floor", laws.Coulomb(mu=0.5))
+    model, state = s.compile(dt=1e-4, tol=1e-10, max_iter=5000)
+    run(model, state, 300, progress=False)
+    net = force_network(model, state)
+    mg = model.body_mass[1] * G
+    assert len(net.normal_force) == 9
+    np.testing.assert_allclose(np.sort(net.normal_force), mg * np.arange(1, 10), rtol=1e-6)
+    assert net.mean_force == pytest.approx(5 * mg, rel=1e-6)
+    assert net.strong.sum() == 4  # 6..9 mg are above the mean 5 mg
+    assert net.coordination == pytest.approx(1.8)
+    assert net.coordination_no_rattlers == pytest.approx(2.0)  # the 8 inner spheres
+    assert np.sum(net.pdf * np.diff(net.pdf_edges)) == pytest.approx(1.0)
+    np.testing.assert_allclose(wall_forces(model, state, [floor])[0], [0, 0, -10 * mg], rtol=1e-6,
+                               atol=1e-12)
+
+
+def test_toroidal_map_of_an_r_only_field_is_constant_in_z():
+    """Closed wire rings whose tension depends on their radius only, the same rings in every
+    z slab: each r column of the map is constant in z; cell volumes tile the cylinder."""
+    from engine.analysis import toroidal_map
+
+    R, H, nz = 8e-3, 12e-3, 4
+    rb = 0.3e-3
+    s = Scene(gravity=(0, 0, 0))
+    rings = []
+    for zc in (np.arange(nz) + 0.5) * H / nz:
+        for rho in (2e-3, 6e-3):
+            k = int(2 * np.pi * rho / (2.4 * rb))
+            phi = np.linspace(0, 2 * np.pi, k, endpoint=False)
+            pts = np.column_stack([rho * np.cos(phi), rho * np.sin(phi), np.full(k, zc)])
+            rings.append((rho, s.add_wire(pts, radius=rb, density=1000.0, group="wire",
+                                          law=laws.ElasticWire(stiffness=1.0), closed=True)))
+    s.interact("wire", "wire", None)
+    model, state = s.compile(dt=1e-4)
+    step(model, state)
+    h = state.last_dt
+    tension = {2e-3: 1.0, 6e-3: 3.0}  # [N], a function of r only
+    bead_rho = np.hypot(*state.position[model.link_i, :2].T)
+    state.link_impulse[:] = np.where(bead_rho < 4e-3, tension[2e-3], tension[6e-3]) * h
+    cyl = Cylinder(radius=R, height=H)
+    tm = toroidal_map(model, state, cyl, n_r=2, n_z=nz, part="wire")
+    assert tm.volume.sum() == pytest.approx(cyl.volume, rel=1e-14)
+    for a in range(2):
+        col = tm.stress[a]
+        np.testing.assert_allclose(col, np.broadcast_to(col[0], col.shape), rtol=0,
+                                   atol=1e-9 * np.abs(col).max())
+    assert tm.equivalent[1, 0] > tm.equivalent[0, 0] > 0  # the outer, tighter rings
+
+
+def test_macro_stiffness_recovers_the_slope_of_a_noisy_line():
+    from engine.analysis import macro_stiffness
+
+    rng = np.random.default_rng(4)
+    e = np.linspace(0, 0.01, 200)
+    H = 4.4e3
+    sig = H * e + 90.0 + rng.normal(0, 0.003 * H * 0.01, e.size)
+    m = macro_stiffness(e, sig)
+    assert m.H == pytest.approx(H, rel=0.01) and m.start == 0
+    # a stiffer start (3H up to 0.2 %) is left out of the linear range
+    knee = 0.002
+    sig2 = np.where(e < knee, 3 * H * e, 3 * H * knee + H * (e - knee)) + rng.normal(0, 0.003 * H * 0.01, e.size)
+    m2 = macro_stiffness(e, sig2, rel_tol=0.005)
+    assert m2.H == pytest.approx(H, rel=0.01) and m2.start_point[0] >= knee * 0.9

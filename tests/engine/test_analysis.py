@@ -211,3 +211,35 @@ def test_macro_stiffness_recovers_the_slope_of_a_noisy_line():
     sig2 = np.where(e < knee, 3 * H * e, 3 * H * knee + H * (e - knee)) + rng.normal(0, 0.003 * H * 0.01, e.size)
     m2 = macro_stiffness(e, sig2, rel_tol=0.005)
     assert m2.H == pytest.approx(H, rel=0.01) and m2.start_point[0] >= knee * 0.9
+
+
+def test_weber_mean_stress_equals_the_confining_pressure():
+    """64 grains in a box whose three far walls are pressure-driven (p = 10 kPa on their
+    current area), no gravity, relaxed: the Weber mean pressure of the sample equals p
+    within 5 % (boundary equilibrium: the average stress equals the applied traction)."""
+    from tests.helpers import settle
+
+    rng = np.random.default_rng(5)
+    n1, a, r = 4, 2.1e-3, 1e-3
+    g = (np.arange(n1) + 0.5) * a
+    pts = np.array([[x, y, z] for x in g for y in g for z in g]) + rng.uniform(-5e-5, 5e-5, (n1 ** 3, 3))
+    L = n1 * a
+    s = Scene(gravity=(0, 0, 0))
+    s.add_spheres(pts, r * rng.uniform(0.9, 1.0, n1 ** 3), density=2650.0)
+    w = s.add_box((0, 0, 0), (L, L, L), group="wall", top=True)  # floor, x-, x+, y-, y+, lid
+    far = {0: w[2], 1: w[4], 2: w[5]}
+    p = 1e4
+
+    def area(axis):
+        u, v = [k for k in range(3) if k != axis]
+        return lambda model, state: state.position[far[u], u] * state.position[far[v], v]
+
+    for axis, wall in far.items():
+        s.drive(wall, pressure=p, area=area(axis), mass=1e-3)
+    s.interact("sand", "sand", laws.Coulomb(mu=0.3))
+    s.interact("sand", "wall", laws.Coulomb(mu=0.3))
+    model, state = s.compile(dt=2e-5, tol=1e-5, max_iter=2000)
+    settle(model, state, 1500, ids=np.concatenate([model.sphere_ids, list(far.values())]))
+    res = weber_stress(model, state)  # region: the sample's bounding box = the wall box
+    assert res.mean_pressure == pytest.approx(p, rel=0.05)
+    assert np.all(res.principal < 0)  # compressed along every direction

@@ -7,17 +7,19 @@
 * :func:`force_network` — strong network, f/⟨f⟩ distribution, coordination number;
   :func:`wall_forces` — force on each wall;
 * :func:`toroidal_map` — Weber stress on (r, z) torus cells (Fig. 13c);
-* :func:`macro_stiffness` — H, the slope of the linear part of (ε_zz, σ_w^eq) (Table 2).
+* :func:`macro_stiffness` — H, the slope of the linear part of (ε_zz, σ_w^eq) (Table 2);
+* :func:`slope_profile` — h(r), floor pressure p(r), regressions, maximum slope (Fig. 10).
 
-Slope profiles (Fig. 10) and strains from wall positions or outer particles come with the
-rest of the analysis issue.
+Strains from wall positions or from a cylinder's outer particles come with the rest of the
+analysis issue.
 """
 from .curves import MacroStiffness, macro_stiffness
 from .network import ForceNetwork, force_network, wall_forces
+from .profiles import SlopeProfile, slope_profile
 from .strain import StrainResult, best_fit_strain
 from .stress import StressResult, equivalent_stress, principal, weber_stress
 from .torus import ToroidalMap, toroidal_map
 
 __all__ = ["weber_stress", "equivalent_stress", "principal", "StressResult", "best_fit_strain",
            "StrainResult", "force_network", "ForceNetwork", "wall_forces", "toroidal_map",
-           "ToroidalMap", "macro_stiffness", "MacroStiffness"]
+           "ToroidalMap", "macro_stiffness", "MacroStiffness", "slope_profile", "SlopeProfile"]

@@ -243,3 +243,29 @@ def test_weber_mean_stress_equals_the_confining_pressure():
     res = weber_stress(model, state)  # region: the sample's bounding box = the wall box
     assert res.mean_pressure == pytest.approx(p, rel=0.05)
     assert np.all(res.principal < 0)  # compressed along every direction
+
+
+def test_slope_profile_of_a_cone_and_floor_pressure_of_a_pile():
+    """A cone of grains with a 30° flank: the linear fit of h(r) gives 30° within 2°.  Once
+    settled on the floor, p(r) integrated over the annuli equals the floor reaction."""
+    from engine.analysis import slope_profile
+
+    r, angle = 0.5e-3, np.radians(30)
+    H0 = 8e-3
+    g = np.arange(-12, 13) * 2.05 * r
+    pts = [(x, y, z) for x in g for y in g for z in np.arange(r, H0, 2.05 * r)
+           if z + r <= H0 - np.tan(angle) * np.hypot(x, y) + 1e-12]
+    s = Scene(gravity=(0, 0, -G))
+    floor = s.add_plane(group="floor")
+    s.add_spheres(np.asarray(pts), r, density=2650.0)
+    s.interact("sand", "sand", laws.Coulomb(mu=0.6))
+    s.interact("sand", "floor", laws.Coulomb(mu=0.6))
+    model, state = s.compile(dt=1e-4, tol=1e-5, max_iter=2000)
+    prof = slope_profile(model, state, floor=floor, r_max=H0 / np.tan(angle) * 0.9, degree=1,
+                         n_bins=12)
+    assert prof.max_slope_deg == pytest.approx(30.0, abs=2.0)
+    run(model, state, 100, progress=False)
+    prof = slope_profile(model, state, floor=floor, n_bins=12)
+    area = np.pi * np.diff(prof.r_edges ** 2)
+    c = state.contacts
+    assert (prof.pressure * area).sum() == pytest.approx(c.normal_force[c.j == floor].sum(), rel=1e-12)

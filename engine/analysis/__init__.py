@@ -5,16 +5,16 @@
 * :func:`best_fit_strain` — Eq. (19), principal, volumetric and deviatoric strains.
 
 * :func:`force_network` — strong network, f/⟨f⟩ distribution, coordination number;
-  :func:`wall_forces` — force on each wall;
+  :func:`wall_forces`, :func:`wall_stress` — force on and normal stress of each wall;
+  :func:`box_strain`, :func:`cylinder_strain` — strains from wall distances or from a
+  cylinder's outer particles;
 * :func:`toroidal_map` — Weber stress on (r, z) torus cells (Fig. 13c);
 * :func:`macro_stiffness` — H, the slope of the linear part of (ε_zz, σ_w^eq) (Table 2);
 * :func:`slope_profile` — h(r), floor pressure p(r), regressions, maximum slope (Fig. 10).
-
-Strains from wall positions or from a cylinder's outer particles come with the rest of the
-analysis issue.
 """
 from .curves import MacroStiffness, macro_stiffness
-from .network import ForceNetwork, force_network, wall_forces
+from .network import (ForceNetwork, box_strain, cylinder_strain, force_network, wall_forces,
+                      wall_stress)
 from .profiles import SlopeProfile, slope_profile
 from .strain import StrainResult, best_fit_strain
 from .stress import StressResult, equivalent_stress, principal, weber_stress
@@ -22,4 +22,5 @@ from .torus import ToroidalMap, toroidal_map
 
 __all__ = ["weber_stress", "equivalent_stress", "principal", "StressResult", "best_fit_strain",
            "StrainResult", "force_network", "ForceNetwork", "wall_forces", "toroidal_map",
-           "ToroidalMap", "macro_stiffness", "MacroStiffness", "slope_profile", "SlopeProfile"]
+           "ToroidalMap", "macro_stiffness", "MacroStiffness", "slope_profile", "SlopeProfile",
+           "wall_stress", "box_strain", "cylinder_strain"]

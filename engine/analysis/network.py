@@ -70,3 +70,68 @@ def wall_forces(model, state, walls=None) -> np.ndarray:
         for k, w in enumerate(walls):
             out[k] = -f[c.j == w].sum(axis=0)
     return out
+
+
+def wall_stress(model, state, walls, areas) -> np.ndarray:
+    """Normal stress [Pa] the spheres exert on each plane wall: (force on the wall · its
+    normal) / area, **compression positive** (the usual sign for boundary pressures).
+
+    ``areas``: (n,) [m²], the walls' current areas.
+    """
+    walls = np.atleast_1d(np.asarray(walls))
+    areas = np.broadcast_to(np.asarray(areas, dtype=float), walls.shape)
+    if np.any(~np.isfinite(areas) | (areas <= 0)):
+        raise ValueError(f"areas must be finite and > 0 m², got {areas.tolist()}")
+    f = wall_forces(model, state, walls)
+    # the spheres push a wall against its normal (which points towards them)
+    return -np.einsum("kd,kd->k", f, model.body_axis[walls]) / areas
+
+
+def box_strain(ref_lengths, lengths) -> dict:
+    """Strains of a box sample from its edge lengths (e.g. distances between opposite walls).
+
+    Parameters
+    ----------
+    ref_lengths, lengths : (3,) [m]
+
+    Returns
+    -------
+    dict with ``strain`` (3,) [-] ΔL/L₀ (extension positive), ``axial`` [-] (= strain[2]),
+    ``volumetric`` [-] V/V₀ − 1.
+    """
+    l0 = np.asarray(ref_lengths, dtype=float)
+    l1 = np.asarray(lengths, dtype=float)
+    if l0.shape != (3,) or l1.shape != (3,) or np.any(l0 <= 0) or np.any(l1 <= 0):
+        raise ValueError(f"ref_lengths and lengths must be 3 positive lengths [m], got {l0}, {l1}")
+    e = l1 / l0 - 1.0
+    return dict(strain=e, axial=float(e[2]), volumetric=float(np.prod(l1) / np.prod(l0) - 1.0))
+
+
+def cylinder_strain(model, ref_positions, positions, *, center=(0.0, 0.0), n_sectors: int = 16,
+                    n_layers: int = 8) -> dict:
+    """Axial, radial and volumetric strains of a cylindrical sample from its outer particles.
+
+    The height is the extent of the sphere tops and bottoms; the radius is the mean, over
+    angular sectors × height layers, of the outermost sphere edge ‖x − axis‖ + r (a discrete
+    outer envelope).  Extension positive.  Returns a dict with ``axial``, ``radial`` and
+    ``volumetric`` [-] ((1+ε_r)²(1+ε_z) − 1) and the measured ``height`` and ``radius`` [m].
+    """
+    ids = model.sphere_ids
+    rad = model.body_radius[ids]
+
+    def measure(x):
+        x = np.asarray(x, dtype=float)[ids]
+        z0, z1 = (x[:, 2] - rad).min(), (x[:, 2] + rad).max()
+        d = np.hypot(x[:, 0] - center[0], x[:, 1] - center[1]) + rad
+        sec = ((np.arctan2(x[:, 1] - center[1], x[:, 0] - center[0]) + np.pi)
+               / (2 * np.pi) * n_sectors).astype(int) % n_sectors
+        lay = np.clip(((x[:, 2] - z0) / (z1 - z0) * n_layers).astype(int), 0, n_layers - 1)
+        env = np.full((n_sectors, n_layers), np.nan)
+        np.fmax.at(env, (sec, lay), d)
+        return z1 - z0, float(np.nanmean(env))
+
+    h0, r0 = measure(ref_positions)
+    h1, r1 = measure(positions)
+    ez, er = h1 / h0 - 1.0, r1 / r0 - 1.0
+    return dict(axial=float(ez), radial=float(er), volumetric=float((1 + er) ** 2 * (1 + ez) - 1),
+                height=float(h1), radius=float(r1))

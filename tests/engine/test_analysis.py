@@ -269,3 +269,40 @@ def test_slope_profile_of_a_cone_and_floor_pressure_of_a_pile():
     area = np.pi * np.diff(prof.r_edges ** 2)
     c = state.contacts
     assert (prof.pressure * area).sum() == pytest.approx(c.normal_force[c.j == floor].sum(), rel=1e-12)
+
+
+def test_boundary_measures():
+    """Wall stress of a pile's floor = weight / area; box and cylinder strains of an imposed
+    homogeneous deformation."""
+    from engine.analysis import box_strain, cylinder_strain, wall_stress
+
+    rng = np.random.default_rng(7)
+    lo, hi = (0, 0, 0), (10e-3, 10e-3, 0.1)
+    pts, radii = lattice_pile(100, 1e-3, rng, (lo, hi), gap=1.02)
+    s = Scene(gravity=(0, 0, -G))
+    s.add_spheres(pts, radii, density=2650.0)
+    box = s.add_box(lo, hi, group="side")
+    s.interact("sand", "sand", laws.Coulomb(mu=0.4))
+    s.interact("sand", "side", laws.Coulomb(mu=0.0))
+    model, state = s.compile(dt=2e-4, tol=1e-8, max_iter=5000)
+    run(model, state, 1000, progress=False)
+    W = model.body_mass[model.sphere_ids].sum() * G
+    assert wall_stress(model, state, [box[0]], [1e-4])[0] == pytest.approx(W / 1e-4, rel=1e-3)
+
+    b = box_strain((10e-3, 10e-3, 20e-3), (10.1e-3, 10.1e-3, 19e-3))
+    assert b["axial"] == pytest.approx(-0.05) and b["strain"][0] == pytest.approx(0.01)
+    assert b["volumetric"] == pytest.approx(1.01 ** 2 * 0.95 - 1)
+
+    x0 = state.position.copy()
+    x1 = x0.copy()
+    x1[:, :2] *= 1.02  # radial stretch about the z axis through (0, 0)
+    x1[:, 2] *= 0.97
+    zero = cylinder_strain(model, x0 - [5e-3, 5e-3, 0], x0 + [0, 0, 2e-3] - [5e-3, 5e-3, 0])
+    assert max(abs(zero["axial"]), abs(zero["radial"]), abs(zero["volumetric"])) < 1e-12
+    cs = cylinder_strain(model, x0 - [5e-3, 5e-3, 0], x1 - [5.1e-3, 5.1e-3, 0])
+    # the centres move by the imposed strain, the radii do not: the envelope strains lie
+    # between 0 and the imposed values, at (extent of centres)/(extent of spheres) of them
+    zc = x0[model.sphere_ids, 2]
+    ext = np.ptp(zc) / ((zc + radii).max() - (zc - radii).min())
+    assert cs["axial"] == pytest.approx(-0.03 * ext, rel=0.05)
+    assert 0 < cs["radial"] < 0.02

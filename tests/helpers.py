@@ -40,3 +40,22 @@ def settle(model, state, steps, ids=None):
         prev = ke
         history.append(ke)
     return np.asarray(history)
+
+
+def box_pile(n, width, *, seed=7, theta=0.5, dt=2e-4, tol=1e-8, max_iter=5000, mu=0.4,
+             wall_mu=0.0):
+    """``n`` grains (r = 1 mm ± 10 %) on a loose lattice in a square box of side ``width`` [m]
+    whose floor and side walls (group "side") have friction ``wall_mu`` (0: no Janssen
+    effect, the floor carries the whole weight).  Returns (model, state, box ids, radii)."""
+    from engine import Scene, laws
+
+    rng = np.random.default_rng(seed)
+    lo, hi = (0, 0, 0), (width, width, 0.1)
+    pts, radii = lattice_pile(n, 1e-3, rng, (lo, hi), gap=1.02)
+    s = Scene(gravity=(0, 0, -G))
+    s.add_spheres(pts, radii, density=2650.0)
+    box = s.add_box(lo, hi, group="side")
+    s.interact("sand", "sand", laws.Coulomb(mu=mu))
+    s.interact("sand", "side", laws.Coulomb(mu=wall_mu))
+    model, state = s.compile(dt=dt, theta=theta, tol=tol, max_iter=max_iter)
+    return model, state, box, radii

@@ -6,7 +6,7 @@ from engine import Scene, laws, run, step
 from engine.analysis import best_fit_strain, equivalent_stress, weber_stress
 from engine.contact import tangent_frame
 from engine.prep import Box, Cylinder, TorusCell
-from tests.helpers import G, lattice_pile
+from tests.helpers import G, box_pile
 
 
 def _hand_assembly():
@@ -60,16 +60,7 @@ def test_weber_stress_of_a_hand_built_assembly():
 def test_pile_at_rest_stress_is_symmetric_and_its_zz_part_integrates_to_the_weight():
     """At rest: σ symmetric; V σ_zz = −W (z_G − z_floor) (frictionless side walls), from the
     equilibrium of every grain (the floor carries W at z_floor, gravity acts at z_G)."""
-    rng = np.random.default_rng(7)
-    r = 1e-3
-    lo, hi = (0, 0, 0), (12e-3, 12e-3, 0.1)
-    pts, radii = lattice_pile(200, r, rng, (lo, hi), gap=1.02)
-    s = Scene(gravity=(0, 0, -G))
-    s.add_spheres(pts, radii, density=2650.0)
-    s.add_box(lo, hi, group="side")
-    s.interact("sand", "sand", laws.Coulomb(mu=0.4))
-    s.interact("sand", "side", laws.Coulomb(mu=0.0))
-    model, state = s.compile(dt=2e-4, tol=1e-8, max_iter=5000)
+    model, state, _, radii = box_pile(200, 12e-3)
     run(model, state, 1500, progress=False)
     ids = model.sphere_ids
     m = model.body_mass[ids]
@@ -276,15 +267,7 @@ def test_boundary_measures():
     homogeneous deformation."""
     from engine.analysis import box_strain, cylinder_strain, wall_stress
 
-    rng = np.random.default_rng(7)
-    lo, hi = (0, 0, 0), (10e-3, 10e-3, 0.1)
-    pts, radii = lattice_pile(100, 1e-3, rng, (lo, hi), gap=1.02)
-    s = Scene(gravity=(0, 0, -G))
-    s.add_spheres(pts, radii, density=2650.0)
-    box = s.add_box(lo, hi, group="side")
-    s.interact("sand", "sand", laws.Coulomb(mu=0.4))
-    s.interact("sand", "side", laws.Coulomb(mu=0.0))
-    model, state = s.compile(dt=2e-4, tol=1e-8, max_iter=5000)
+    model, state, box, radii = box_pile(100, 10e-3)
     run(model, state, 1000, progress=False)
     W = model.body_mass[model.sphere_ids].sum() * G
     assert wall_stress(model, state, [box[0]], [1e-4])[0] == pytest.approx(W / 1e-4, rel=1e-3)

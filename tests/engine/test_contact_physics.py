@@ -4,7 +4,7 @@ import pytest
 
 from engine import Scene, laws, run, step
 
-from tests.helpers import G, lattice_pile
+from tests.helpers import G, box_pile
 
 
 def test_sphere_resting_on_plane(theta):
@@ -94,17 +94,9 @@ def test_column_of_ten_spheres_floor_reaction(theta):
 
 def test_pile_of_500_spheres_floor_reaction(theta):
     """At rest, the floor carries the whole weight (side walls frictionless: no Janssen)."""
-    rng = np.random.default_rng(7)
-    r = 1e-3
-    lo, hi = (0, 0, 0), (16e-3, 16e-3, 0.1)
-    pts, radii = lattice_pile(500, r, rng, (lo, hi), gap=1.02)
-    s = Scene(gravity=(0, 0, -G))
-    s.add_spheres(pts, radii, density=2650.0)
-    box = s.add_box(lo, hi, group="side")
+    hi = (16e-3, 16e-3)
+    model, state, box, _ = box_pile(500, hi[0], theta=theta, tol=1e-6, max_iter=2000)
     floor = box[0]
-    s.interact("sand", "sand", laws.Coulomb(mu=0.4))
-    s.interact("sand", "side", laws.Coulomb(mu=0.0))
-    model, state = s.compile(dt=2e-4, theta=theta, tol=1e-6, max_iter=2000)
     ke = []
     for _ in range(1500):
         step(model, state)

@@ -86,8 +86,7 @@ class Scene:
         self._fixed: set[int] = set()
         self._drives: dict[int, Drive] = {}
         self._drive_mass: dict[int, float] = {}
-        self._links: list[tuple[int, int, object]] = []  # (i, j, law)
-        self._link_pos: list[int] = []  # position of each link along its wire
+        self._links: list[tuple[int, int, object, int]] = []  # (i, j, law, position along its wire)
 
     # -- bodies ------------------------------------------------------------------------------
     def _group_index(self, group) -> int:
@@ -185,8 +184,7 @@ class Scene:
                              f"{2 * r * (1 - OVERLAP_TOLERANCE):.6g} m) at links {bad[:10].tolist()}")
         ids = self.add_spheres(c, r, density, group=group)
         for k in range(len(nxt)):
-            self._links.append((int(ids[k]), int(ids[(k + 1) % len(ids)]), law))
-            self._link_pos.append(k)
+            self._links.append((int(ids[k]), int(ids[(k + 1) % len(ids)]), law, k))
         return ids
 
     def _add_wall(self, kind, point, axis, radius, height, caps, group) -> int:
@@ -499,9 +497,10 @@ class Scene:
         caps = np.asarray(self._caps, np.int8)
         self._check_overlaps(pos, radius, kind, axis, height, caps, sphere_ids)
 
-        link_i = np.asarray([a for a, _, _ in self._links], np.int32)
-        link_j = np.asarray([b for _, b, _ in self._links], np.int32)
-        lp = np.asarray([law.params() for _, _, law in self._links], float).reshape(-1, _laws.N_PARAM)
+        link_i = np.asarray([lk[0] for lk in self._links], np.int32)
+        link_j = np.asarray([lk[1] for lk in self._links], np.int32)
+        lp = np.asarray([lk[2].params() for lk in self._links], float).reshape(-1, _laws.N_PARAM)
+        link_pos = np.asarray([lk[3] for lk in self._links], np.int64)
         g0 = np.linalg.norm(pos[link_i] - pos[link_j], axis=1) if len(self._links) else np.zeros(0)
         body_next = -np.ones(nb, np.int32)
         body_next[link_i] = link_j
@@ -522,10 +521,10 @@ class Scene:
             group_names=tuple(names), pair_law=pair_law, law_code=law_code, law_param=law_param,
             laws=law_objs, drives=tuple(self._drives[b] for b in sorted(self._drives)),
             link_i=link_i, link_j=link_j,
-            link_law=np.asarray([law.code for _, _, law in self._links], np.int16),
+            link_law=np.asarray([lk[2].code for lk in self._links], np.int16),
             link_ref_length=g0 / (1.0 + lp[:, 1]), link_stiffness=lp[:, 0].copy(),
             link_max_tension=lp[:, 2].copy(), link_unilateral=lp[:, 3].astype(np.int8),
-            link_order=np.argsort(np.asarray(self._link_pos, np.int64) % 2, kind="stable").astype(np.int32),
+            link_order=np.argsort(link_pos % 2, kind="stable").astype(np.int32),
             body_next=body_next, options=opts)
         nl = link_i.shape[0]
         state = State(position=pos.copy(), vel6=np.ascontiguousarray(np.hstack([vel, spin])),

@@ -212,6 +212,19 @@ def sweep(n, n_pair, c_i, c_j, frame, w, gterm, mu, ri, rj, impulse, body_dyn, v
     return num, den
 
 
+@njit(cache=True, inline="always")
+def _apply_link(i, j, dl, nx, ny, nz, body_dyn, vel6):
+    """Add a link impulse change dl (tension positive): −dl n on bead i, +dl n on bead j."""
+    imi = body_dyn[i, DYN_INV_MASS] * dl
+    imj = body_dyn[j, DYN_INV_MASS] * dl
+    vel6[i, 0] -= imi * nx
+    vel6[i, 1] -= imi * ny
+    vel6[i, 2] -= imi * nz
+    vel6[j, 0] += imj * nx
+    vel6[j, 1] += imj * ny
+    vel6[j, 2] += imj * nz
+
+
 @njit(cache=True)
 def link_prepare(nl, link_i, link_j, ref_len, stiffness, broken, pos, body_dyn, vel6, impulse,
                  normal, gap, wl, h):
@@ -259,14 +272,8 @@ def link_prepare(nl, link_i, link_j, ref_len, stiffness, broken, pos, body_dyn, 
         wl[l, 3] = L * L
         wl[l, 4] = h * h
         wl[l, 5] = 1.0 / h
-        lam = impulse[l]
-        if lam != 0.0:
-            vel6[i, 0] -= imi * lam * nx
-            vel6[i, 1] -= imi * lam * ny
-            vel6[i, 2] -= imi * lam * nz
-            vel6[j, 0] += imj * lam * nx
-            vel6[j, 1] += imj * lam * ny
-            vel6[j, 2] += imj * lam * nz
+        if impulse[l] != 0.0:
+            _apply_link(i, j, impulse[l], nx, ny, nz, body_dyn, vel6)
 
 
 @njit(cache=True)
@@ -331,14 +338,7 @@ def link_sweep(nl, link_i, link_j, normal, wl, unilateral, impulse, body_dyn, ve
         dl = relax * (lam - lam0)
         lam = lam0 + dl
         impulse[l] = lam
-        imi = body_dyn[i, DYN_INV_MASS] * dl
-        imj = body_dyn[j, DYN_INV_MASS] * dl
-        vel6[i, 0] -= imi * nx
-        vel6[i, 1] -= imi * ny
-        vel6[i, 2] -= imi * nz
-        vel6[j, 0] += imj * nx
-        vel6[j, 1] += imj * ny
-        vel6[j, 2] += imj * nz
+        _apply_link(i, j, dl, nx, ny, nz, body_dyn, vel6)
         num += (W * dl) ** 2
         den += (W * lam) ** 2
     return num, den

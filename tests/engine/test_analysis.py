@@ -289,3 +289,17 @@ def test_boundary_measures():
     ext = np.ptp(zc) / ((zc + radii).max() - (zc - radii).min())
     assert cs["axial"] == pytest.approx(-0.03 * ext, rel=0.05)
     assert 0 < cs["radial"] < 0.02
+
+
+def test_regions_volume_containment_and_bad_input():
+    from engine.prep import Box, Sphere
+
+    sp = Sphere(radius=2e-3, center=(1e-3, 0, 0))
+    assert sp.volume == pytest.approx(4 / 3 * np.pi * 8e-9, rel=1e-14)
+    assert sp.contains([[1e-3, 0, 1.99e-3], [1e-3, 0, 2.01e-3]]).tolist() == [True, False]
+    with pytest.raises(ValueError, match="radius must be finite and > 0"):
+        Sphere(radius=0.0)
+    with pytest.raises(ValueError, match="Box needs hi > lo"):
+        Box((0, 0, 0), (1, 0, 1))
+    with pytest.raises(ValueError, match="r_in < r_out"):
+        TorusCell(2e-3, 1e-3, 0, 1e-3)

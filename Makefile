@@ -4,7 +4,7 @@ VENV   := .venv
 PY     := $(VENV)/bin/python
 STAMP  := $(VENV)/.installed
 
-.PHONY: install test demo bench clean
+.PHONY: install test demo bench bench-peers clean
 
 $(STAMP): pyproject.toml
 	$(PYTHON) -m venv $(VENV)
@@ -26,6 +26,10 @@ demo: $(STAMP)
 bench: $(STAMP)
 	$(PY) bench/bench_core.py
 	$(PY) bench/bench_wire.py
+
+## make bench-peers: the same scenes in Siconos and Yade (installed with apt if missing)
+bench-peers: $(STAMP)
+	bash bench/peers/run.sh
 
 clean:
 	rm -rf $(VENV) out .pytest_cache

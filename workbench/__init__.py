@@ -1,10 +1,14 @@
-"""nscd-workbench outputs: ParaView series and matplotlib figures for engine runs.
+"""nscd-workbench outputs: ParaView series, PyVista pictures and matplotlib figures for engine runs.
 
 Submodules are imported on first attribute access (module ``__getattr__``, PEP 562), so
 ``import workbench`` stays cheap and never imports VTK or PyVista:
 
+* :mod:`workbench.meshes` — beads, wire links, contact force lines and walls as arrays
+  (:class:`~workbench.meshes.Part`) and as :class:`pyvista.PolyData`;
 * :mod:`workbench.series` — :class:`~workbench.series.SeriesWriter`, VTU per frame +
   PVD collection (written with meshio), usable as an :func:`engine.run` writer;
+* :mod:`workbench.render` — off-screen PyVista pictures,
+  :func:`~workbench.render.snapshot` with presets ``beads``, ``wire``, ``forces``, ``torus``;
 * :mod:`workbench.figures` — matplotlib figures (Agg, no pyplot), e.g.
   :func:`~workbench.figures.deposit_figure`.
 """
@@ -12,7 +16,7 @@ from __future__ import annotations
 
 import importlib
 
-_SUBMODULES = ("series", "figures")
+_SUBMODULES = ("meshes", "series", "render", "figures")
 
 __all__ = list(_SUBMODULES)
 

@@ -1,27 +1,37 @@
 """VTU files per frame and a PVD collection that ParaView opens as a time series.
 
 :class:`SeriesWriter` is an engine writer (``trigger(step)``, ``write(model, state)``,
-``flush()``, ``close()``; see :func:`engine.run`).  Each frame it writes
+``flush()``, ``close()``; see :func:`engine.run`).  Each frame it writes the parts built
+by :mod:`workbench.meshes` (the same arrays the PyVista pictures of
+:mod:`workbench.render` use):
 
 * ``<name>_<frame>.vtu`` (PVD part 0): one VTK vertex per sphere at its centre, with point
-  data ``radius`` [m], ``velocity`` (n, 3) [m/s], ``spin`` (n, 3) [rad/s], ``group``
-  (index into ``model.group_names``), ``kind`` (``model.body_kind``) and ``body_id``;
+  data ``radius`` [m], ``velocity`` (n, 3) [m/s], ``speed`` [m/s], ``spin`` (n, 3)
+  [rad/s], ``kind`` (0 sand, 1 wire bead), ``group`` (index into ``model.group_names``)
+  and ``body_id``;
 * ``<name>_contacts_<frame>.vtu`` (PVD part 1), only when the step had contacts: one line
   per contact, from the centre of sphere i to the centre of body j (sphere–sphere) or to
   the contact point (sphere–wall), with cell data ``normal_force`` (k,) [N] (>= 0,
-  compression), ``force`` (k, 3) [N] (on i, global frame), ``i``, ``j``, ``sub`` and
-  ``wall`` (1 when j is a wall);
+  compression), ``tangential_force`` (k,) [N] (magnitude), ``force`` (k, 3) [N] (on i,
+  global frame), ``kind`` (0 sand–sand, 1 sand–wire, 2 wire–wire, 3 sphere–wall), ``i``,
+  ``j``, ``sub`` and ``wall`` (1 when j is a wall);
 * ``<name>_wire_<frame>.vtu`` (PVD part 2), only for scenes with wires: one line per wire
   link between the two bead centres, with cell data ``tension`` (l,) [N] (> 0 in
-  tension), ``broken`` (1 = broken for good), ``length`` [m] and ``ref_length`` [m] (g_ref
-  of Eq. 7).
+  tension), ``broken`` (1 = broken for good), ``length`` [m], ``ref_length`` [m] (g_ref
+  of Eq. 7), ``strain`` [-] and ``link_id``;
+* ``<name>_walls_<frame>.vtu`` (PVD part 3), only for scenes with walls (and ``walls=True``):
+  triangles of the plane patches and cylinders, with cell data ``body_id``, ``kind``
+  (1 plane, 2 cylinder), ``group`` and ``sub`` (0 side, 1 bottom cap, 2 top cap).
 
 The ``<name>.pvd`` file is rewritten (atomically) after every frame, so it stays valid
 if the run is killed.  In ParaView: File > Open ``<name>.pvd``; show part 0 with the
 "Point Gaussian" representation scaled by ``radius`` (or a Glyph filter, sphere glyphs
-scaled by ``radius``), part 1 as lines coloured by ``normal_force``.
+scaled by ``radius``), part 1 as lines coloured by ``normal_force``, part 2 coloured by
+``tension``, part 3 with some opacity.  ``tests/workbench/test_paraview.py`` opens the
+series with ParaView's own reader (``pvpython``).
 
-No VTK or PyVista is needed: files are written by :mod:`meshio`.
+No VTK or PyVista is needed: files are written by :mod:`meshio` (binary, appended raw data
+by default; ``compression="zlib"`` gives smaller, slower files).
 """
 from __future__ import annotations
 
@@ -32,25 +42,18 @@ from xml.sax.saxutils import quoteattr
 import meshio
 import numpy as np
 
-__all__ = ["SeriesWriter", "sphere_mesh", "contact_mesh", "wire_mesh", "read_pvd"]
+from . import meshes
+
+__all__ = ["SeriesWriter", "sphere_mesh", "contact_mesh", "wire_mesh", "wall_mesh", "read_pvd",
+           "PARTS"]
+
+#: PVD part number of each kind of file.
+PARTS = {"beads": 0, "contacts": 1, "wire": 2, "walls": 3}
 
 
 def sphere_mesh(model, state) -> meshio.Mesh:
     """Spheres as VTK vertices at their centres, with their per-sphere data (see module doc)."""
-    ids = model.sphere_ids
-    n = ids.shape[0]
-    return meshio.Mesh(
-        points=np.ascontiguousarray(state.position[ids], dtype=np.float64),
-        cells=[("vertex", np.arange(n, dtype=np.int64).reshape(n, 1))],
-        point_data={
-            "radius": np.ascontiguousarray(model.body_radius[ids], dtype=np.float64),
-            "velocity": np.ascontiguousarray(state.velocity[ids], dtype=np.float64),
-            "spin": np.ascontiguousarray(state.spin[ids], dtype=np.float64),
-            "group": model.body_group[ids].astype(np.int32),
-            "kind": model.body_kind[ids].astype(np.int32),
-            "body_id": ids.astype(np.int32),
-        },
-    )
+    return meshes.bead_part(model, state).to_meshio()
 
 
 def contact_mesh(model, state) -> meshio.Mesh | None:
@@ -59,50 +62,21 @@ def contact_mesh(model, state) -> meshio.Mesh | None:
     A line goes from the centre of sphere i to the centre of sphere j, or to the contact
     point when j is a wall (``model.body_kind[j] != 0``).
     """
-    c = state.contacts
-    k = len(c)
-    if k == 0 or not state.last_dt:
-        return None
-    wall = model.body_kind[c.j] != 0
-    end = state.position[c.j].copy()
-    end[wall] = c.point[wall]
-    points = np.empty((2 * k, 3))
-    points[0::2] = state.position[c.i]
-    points[1::2] = end
-    force = c.force
-    return meshio.Mesh(
-        points=points,
-        cells=[("line", np.arange(2 * k, dtype=np.int64).reshape(k, 2))],
-        cell_data={
-            "normal_force": [np.ascontiguousarray(c.normal_force, dtype=np.float64)],
-            "force": [np.ascontiguousarray(force, dtype=np.float64)],
-            "i": [c.i.astype(np.int32)],
-            "j": [c.j.astype(np.int32)],
-            "sub": [c.sub.astype(np.int32)],
-            "wall": [wall.astype(np.int32)],
-        },
-    )
+    part = meshes.contact_part(model, state)
+    return None if part is None else part.to_meshio()
 
 
 def wire_mesh(model, state) -> meshio.Mesh | None:
     """Wire links as lines between bead centres (see module doc); ``None`` without wires."""
-    links = state.links
-    k = len(links)
-    if k == 0:
-        return None
-    points = np.empty((2 * k, 3))
-    points[0::2] = state.position[links.i]
-    points[1::2] = state.position[links.j]
-    return meshio.Mesh(
-        points=points,
-        cells=[("line", np.arange(2 * k, dtype=np.int64).reshape(k, 2))],
-        cell_data={
-            "tension": [np.ascontiguousarray(links.tension, dtype=np.float64)],
-            "broken": [links.broken.astype(np.int32)],
-            "length": [np.ascontiguousarray(links.length, dtype=np.float64)],
-            "ref_length": [np.ascontiguousarray(model.link_ref_length, dtype=np.float64)],
-        },
-    )
+    part = meshes.wire_part(model, state)
+    return None if part is None else part.to_meshio()
+
+
+def wall_mesh(model, state) -> meshio.Mesh | None:
+    """Walls as triangles (plane patches, cylinder sides and caps; see
+    :func:`workbench.meshes.wall_part`); ``None`` without walls."""
+    part = meshes.wall_part(model, state)
+    return None if part is None else part.to_meshio()
 
 
 class SeriesWriter:
@@ -116,7 +90,13 @@ class SeriesWriter:
         Write when the step number is a multiple of ``every``.
     name : str
         Stem of the file names: ``<name>.pvd``, ``<name>_000012.vtu``,
-        ``<name>_contacts_000012.vtu``.
+        ``<name>_contacts_000012.vtu``, ``<name>_wire_000012.vtu``,
+        ``<name>_walls_000012.vtu``.
+    walls : bool
+        Also write the walls (part 3) in every frame.
+    compression : None, "zlib" or "lzma"
+        Compression of the VTU data arrays (None: raw binary, the fastest to write; see
+        ``bench/bench_render.py``).
 
     Notes
     -----
@@ -126,15 +106,20 @@ class SeriesWriter:
     so it reads back as the exact same float.
     """
 
-    def __init__(self, out_dir, every: int = 100, name: str = "frame"):
+    def __init__(self, out_dir, every: int = 100, name: str = "frame", *, walls: bool = True,
+                 compression: str | None = None):
         if isinstance(every, bool) or not isinstance(every, (int, np.integer)) or every < 1:
             raise ValueError(f"every must be an integer >= 1, got {every!r}")
         if not isinstance(name, str) or not name or os.sep in name:
             raise ValueError(f"name must be a non-empty file stem, got {name!r}")
+        if compression not in (None, "zlib", "lzma"):
+            raise ValueError(f"compression must be None, 'zlib' or 'lzma', got {compression!r}")
         self.out_dir = Path(out_dir)
         self.out_dir.mkdir(parents=True, exist_ok=True)
         self.every = int(every)
         self.name = name
+        self.walls = bool(walls)
+        self.compression = compression
         self.frames = 0
         self._entries: list[tuple[float, int, str]] = []  # (time [s], part, file)
 
@@ -146,22 +131,26 @@ class SeriesWriter:
     def trigger(self, step: int) -> bool:
         return int(step) % self.every == 0
 
+    def frame_parts(self, model, state) -> dict:
+        """The parts of one frame, ``{"beads": Part, "contacts": Part | None, ...}``
+        (see :mod:`workbench.meshes`; ``None`` for a part with nothing to draw)."""
+        return {"beads": meshes.bead_part(model, state),
+                "contacts": meshes.contact_part(model, state),
+                "wire": meshes.wire_part(model, state),
+                "walls": meshes.wall_part(model, state) if self.walls else None}
+
     def write(self, model, state) -> None:
-        """Write the frame of ``state`` (spheres, and contact lines if any) and the PVD."""
+        """Write the frame of ``state`` (spheres; contact lines, wire links and walls when
+        there are any) and rewrite the PVD."""
         t = float(state.time)
-        stem = f"{self.name}_{self.frames:06d}.vtu"
-        meshio.write(self.out_dir / stem, sphere_mesh(model, state), file_format="vtu")
-        self._entries.append((t, 0, stem))
-        lines = contact_mesh(model, state)
-        if lines is not None:
-            stem = f"{self.name}_contacts_{self.frames:06d}.vtu"
-            meshio.write(self.out_dir / stem, lines, file_format="vtu")
-            self._entries.append((t, 1, stem))
-        wire = wire_mesh(model, state)
-        if wire is not None:
-            stem = f"{self.name}_wire_{self.frames:06d}.vtu"
-            meshio.write(self.out_dir / stem, wire, file_format="vtu")
-            self._entries.append((t, 2, stem))
+        for key, part in self.frame_parts(model, state).items():
+            if part is None:
+                continue
+            infix = "" if key == "beads" else f"_{key}"
+            stem = f"{self.name}{infix}_{self.frames:06d}.vtu"
+            meshio.write(self.out_dir / stem, part.to_meshio(), file_format="vtu",
+                         compression=self.compression)
+            self._entries.append((t, PARTS[key], stem))
         self.frames += 1
         self._write_pvd()
 

@@ -123,3 +123,38 @@ def test_wire_links_are_written_with_tension_and_broken_flag(tmp_path):
     np.testing.assert_array_equal(mesh.cell_data["tension"][0], state.links.tension)
     np.testing.assert_array_equal(mesh.cell_data["broken"][0], state.links.broken.astype(int))
     assert state.links.broken[0]  # 2 beads of 8.4e-5 N hang on link 0: it broke
+
+
+def test_walls_part_and_new_arrays(result):
+    """Part 3 (walls) in every frame; contact lines carry ft and kind; beads carry kind."""
+    out, writer, model, state, *_ = result
+    entries = read_pvd(writer.pvd_path)
+    walls = [e for e in entries if e["part"] == 3]
+    assert [e["timestep"] for e in walls] == [e["timestep"] for e in entries if e["part"] == 0]
+    mesh = meshio.read(walls[-1]["file"])
+    assert mesh.cells[0].type == "triangle"
+    assert set(mesh.cell_data["body_id"][0].tolist()) == set(model.wall_ids.tolist())
+    np.testing.assert_allclose(mesh.points[:, 2], 0.0)  # the floor plane z = 0
+    lines = meshio.read([e for e in entries if e["part"] == 1][-1]["file"])
+    c = state.contacts
+    ft = np.linalg.norm(c.force - c.normal_force[:, None] * c.normal, axis=1)
+    np.testing.assert_allclose(lines.cell_data["tangential_force"][0], ft, rtol=1e-12, atol=1e-18)
+    wall = model.body_kind[c.j] != 0
+    np.testing.assert_array_equal(lines.cell_data["kind"][0], np.where(wall, 3, 0))
+    beads = meshio.read([e for e in entries if e["part"] == 0][-1]["file"])
+    np.testing.assert_array_equal(beads.point_data["kind"], 0)  # sand only
+
+
+def test_writer_options(tmp_path):
+    model, state = _scene()
+    run(model, state, 3, progress=False)
+    w = SeriesWriter(tmp_path, name="z", walls=False, compression="zlib")
+    w.write(model, state)
+    parts = sorted({e["part"] for e in read_pvd(w.pvd_path)})
+    assert parts == [0, 1]
+    raw = SeriesWriter(tmp_path / "raw", name="z")
+    raw.write(model, state)
+    a, b = meshio.read(tmp_path / "z_000000.vtu"), meshio.read(tmp_path / "raw" / "z_000000.vtu")
+    np.testing.assert_array_equal(a.points, b.points)
+    with pytest.raises(ValueError, match="compression"):
+        SeriesWriter(tmp_path, compression="gzip")

@@ -1,0 +1,173 @@
+"""Image regression of the render presets (pytest-pyvista) and snapshot behaviour.
+
+Cached images live in tests/workbench/image_cache (``image_cache_dir`` in pyproject.toml);
+regenerate them after a deliberate change of a picture with
+``.venv/bin/python -m pytest tests/workbench/test_render.py --reset_image_cache`` and look
+at them before committing.
+
+Threshold (``ERROR``): pytest-pyvista's error is ``pyvista.compare_images`` (VTK's
+vtkImageDifference, thresholded mean pixel error).  Measured on this stack (VTK 9.7 wheel,
+EGL, Mesa 22.3 llvmpipe, 400 x 300 px):
+
+* the same scene rendered twice, in one process or in two: 0.0 (byte-identical PNGs), also
+  with llvmpipe on 1, 2 or 7 threads (``LP_NUM_THREADS``);
+* one sand grain moved by one radius: 23 (``beads``), 2.5 (``forces``: it only shifts
+  two thin grey lines);
+* every wire tension x 1.2 (same relative picture, new colour-bar labels): 71 (``wire``,
+  ``torus``);
+* half the contact forces x 1.5: 215 (``forces``);
+* the camera zoomed by 2 %: 350 to 1700.
+
+The plugin's default (error 500) would let all of these through but the zoom.  We fail
+above 10: an order of magnitude above what a rerun gives (0) leaves room for rasteriser
+noise from another Mesa build, and every deliberate change above but the smallest one
+(2.5) fails.  Any non-zero difference warns.  ``test_threshold_separates_rerun_from_change``
+keeps that claim checked.
+"""
+from __future__ import annotations
+
+import os
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+
+pv = pytest.importorskip("pyvista")
+
+from workbench import render  # noqa: E402
+
+from .scenes import texsol_cylinder  # noqa: E402
+
+ERROR = 10.0     # see the module doc
+WARNING = 0.5
+SIZE = (400, 300)
+TORUS_SIZE = (600, 300)
+
+
+@pytest.fixture(scope="module")
+def scene():
+    return texsol_cylinder()
+
+
+def _size(preset):
+    return TORUS_SIZE if preset == "torus" else SIZE
+
+
+def _image(model, state, preset, **options):
+    pl = render.plotter(model, state, preset, window_size=_size(preset), **options)
+    try:
+        return pl.screenshot()
+    finally:
+        pl.close()
+
+
+@pytest.mark.parametrize("preset, camera, options", [
+    ("beads", "iso", {"cut": (1.0, -1.6, 0.0)}),
+    ("wire", "iso", {}),
+    ("forces", "front", {}),
+    ("torus", "iso", {"part": "all"}),
+], ids=["beads", "wire", "forces", "torus"])
+def test_preset_image(scene, verify_image_cache, preset, camera, options):
+    model, state, _ = scene
+    verify_image_cache.error_value = ERROR
+    verify_image_cache.warning_value = WARNING
+    pl = render.plotter(model, state, preset, camera=camera, window_size=_size(preset), **options)
+    try:
+        verify_image_cache(pl)
+    finally:
+        pl.close()
+
+
+def test_camera_presets_image(scene, verify_image_cache):
+    """The ``top`` camera and sand coloured by speed (a continuous colour bar in m/s)."""
+    model, state, _ = scene
+    verify_image_cache.error_value = ERROR
+    verify_image_cache.warning_value = WARNING
+    pl = render.plotter(model, state, "beads", camera="top", window_size=SIZE, color_by="speed",
+                        walls=False)
+    try:
+        verify_image_cache(pl)
+    finally:
+        pl.close()
+
+
+def test_threshold_separates_rerun_from_change(scene):
+    """A rerun is far below ERROR; moving one grain by one radius, or scaling the
+    tensions by 1.2, is above it (see the module doc)."""
+    model, state, _ = scene
+    base = _image(model, state, "beads")
+    assert pv.compare_images(base, _image(model, state, "beads")) <= WARNING
+    moved = state.copy()
+    b = model.sphere_ids[150]
+    moved.position[b, 0] += model.body_radius[b]
+    assert pv.compare_images(base, _image(model, moved, "beads")) > ERROR
+    wire = _image(model, state, "wire")
+    stretched = state.copy()
+    stretched.link_impulse[:] *= 1.2
+    assert pv.compare_images(wire, _image(model, stretched, "wire")) > ERROR
+
+
+def test_snapshot_writes_deterministic_png(scene, tmp_path):
+    model, state, _ = scene
+    a = render.snapshot(model, state, tmp_path / "a" / "forces.png", preset="forces",
+                        window_size=(320, 240))
+    b = render.snapshot(model, state, tmp_path / "b.png", preset="forces", window_size=(320, 240))
+    assert a.is_file() and a.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+    ia, ib = pv.read(a), pv.read(b)
+    assert ia.dimensions[:2] == (320, 240)
+    np.testing.assert_array_equal(ia.active_scalars, ib.active_scalars)
+    assert a.read_bytes() == b.read_bytes()
+
+
+def test_explicit_camera_and_errors(scene, tmp_path):
+    model, state, _ = scene
+    cam = [(0.02, -0.02, 0.02), (0.0, 0.0, 0.002), (0.0, 0.0, 1.0)]
+    pl = render.plotter(model, state, "wire", camera=cam, window_size=SIZE)
+    try:
+        np.testing.assert_allclose(np.array(pl.camera_position.to_list()), cam)
+    finally:
+        pl.close()
+    with pytest.raises(ValueError, match="unknown preset"):
+        render.snapshot(model, state, tmp_path / "x.png", preset="glitter")
+    with pytest.raises(ValueError, match="unknown camera"):
+        render.snapshot(model, state, tmp_path / "x.png", camera="fisheye")
+    with pytest.raises(ValueError, match="color_by"):
+        render.snapshot(model, state, tmp_path / "x.png", color_by="temperature")
+    with pytest.raises(ValueError, match="field"):
+        render.snapshot(model, state, tmp_path / "x.png", preset="torus", field="shear")
+
+
+def test_torus_needs_a_cylinder(tmp_path):
+    from engine import Scene, laws
+
+    s = Scene()
+    s.add_plane()
+    s.add_spheres([[0, 0, 1e-3]], 1e-3, density=2650.0)
+    s.interact("sand", "wall", laws.Coulomb(mu=0.5))
+    model, state = s.compile(dt=1e-4)
+    with pytest.raises(ValueError, match="cylinder"):
+        render.snapshot(model, state, tmp_path / "t.png", preset="torus")
+    # the other presets draw a scene without contacts or wires (empty parts are skipped)
+    for preset in ("beads", "wire", "forces"):
+        assert render.snapshot(model, state, tmp_path / f"{preset}.png", preset=preset,
+                               window_size=(160, 120)).is_file()
+
+
+def test_headless_in_a_fresh_process(tmp_path):
+    """No DISPLAY: the snapshot is made off-screen (EGL chosen by headless_backend)."""
+    code = (
+        "import sys; sys.path.insert(0, '.')\n"
+        "import workbench.render as r\n"
+        "assert 'pyvista' not in sys.modules and 'vtk' not in sys.modules\n"
+        "from tests.workbench.scenes import texsol_cylinder\n"
+        "m, s, _ = texsol_cylinder(n_sand=40, wire_beads=8, steps=5)\n"
+        f"p = r.snapshot(m, s, {str(tmp_path / 'h.png')!r}, window_size=(120, 90))\n"
+        "import os; print(os.environ.get('VTK_DEFAULT_OPENGL_WINDOW'))\n")
+    env = {k: v for k, v in os.environ.items()
+           if k not in ("DISPLAY", "WAYLAND_DISPLAY", "VTK_DEFAULT_OPENGL_WINDOW")}
+    root = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
+    out = subprocess.run([sys.executable, "-c", code], cwd=root, env=env, check=True,
+                         capture_output=True, text=True, timeout=300)
+    assert out.stdout.strip() == "vtkEGLRenderWindow"
+    assert (tmp_path / "h.png").stat().st_size > 0

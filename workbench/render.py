@@ -1,0 +1,458 @@
+"""Off-screen PyVista pictures of a state: beads, wire tension network, force chains,
+toroidal stress map.
+
+::
+
+    from workbench.render import snapshot
+    snapshot(model, state, "out/beads.png")                          # preset "beads", camera "iso"
+    snapshot(model, state, "out/wire.png", preset="wire", camera="front")
+    snapshot(model, state, "out/forces.png", preset="forces", strong="mean")
+    snapshot(model, state, "out/torus.png", preset="torus", part="wire", n_r=5, n_z=10)
+
+Presets (``preset=``; ``**options`` listed with each builder)
+
+``beads``  (:func:`add_beads`)
+    Every sphere at its radius, sand and wire beads coloured by kind (categorical colour
+    bar "bead kind"), walls translucent.
+``wire``  (:func:`add_wire`)
+    The wire's tension network: each link a tube whose radius and colour grow with its
+    tension [N]; slack links (tension <= ``slack`` × max) thin and grey; broken links
+    red and thin; walls translucent.
+``forces``  (:func:`add_forces`)
+    Force chains: one tube per contact (centre to centre, or centre to the wall point)
+    whose radius and colour grow with the normal force [N]; the strong network
+    (fn > ``strong`` × mean fn, the usual split at the mean force) opaque and coloured,
+    the weak network thin and light grey.
+``torus``  (:func:`add_torus`)
+    Toroidal map (paper Fig. 13c; :func:`engine.analysis.toroidal_map`): left, the
+    (r, z) section of the cylinder as an image of the equivalent stress [Pa] per torus
+    cell (grey = empty cell); right, the same map revolved about the cylinder axis over
+    ``sweep`` degrees (cut open, so the inside shows).
+
+Determinism: one fixed theme (:func:`theme`: white background, Arial, fixed font sizes,
+no multi-sampling), a fixed window size, cameras computed from the scene bounds only
+(:data:`CAMERAS`), no random colours.  The same input gives the same pixels on the same
+GL stack (checked by ``tests/workbench/test_render.py``).
+
+Headless: the plotter is always off-screen.  VTK >= 9.4 wheels pick a GL back end at
+run time; with no ``DISPLAY`` we ask for EGL (Mesa's llvmpipe software rasteriser when
+there is no GPU: Debian packages ``libegl1`` + ``libegl-mesa0`` + ``libgl1-mesa-dri``,
+installed by ``make install``) through ``VTK_DEFAULT_OPENGL_WINDOW`` unless the caller
+has set it, which saves VTK a failed attempt at an X connection.
+
+Only this module and :mod:`workbench.meshes`' PyVista wrappers import PyVista (lazily).
+"""
+from __future__ import annotations
+
+import os
+from pathlib import Path
+
+import numpy as np
+
+from . import meshes
+
+__all__ = ["PRESETS", "CAMERAS", "snapshot", "plotter", "theme", "set_camera", "add_beads",
+           "add_wire", "add_forces", "add_torus", "add_walls", "headless_backend"]
+
+PRESETS = ("beads", "wire", "forces", "torus")
+
+#: Camera presets: (direction from the focal point to the camera, view-up vector).
+CAMERAS = {
+    "iso": ((1.0, -1.6, 1.0), (0.0, 0.0, 1.0)),
+    "front": ((0.0, -1.0, 0.0), (0.0, 0.0, 1.0)),
+    "side": ((1.0, 0.0, 0.0), (0.0, 0.0, 1.0)),
+    "top": ((0.0, 0.0, 1.0), (0.0, 1.0, 0.0)),
+}
+
+#: Default window size [px] (width, height).
+WINDOW_SIZE = (800, 600)
+
+# colours (fixed; named so that pictures and legends agree)
+SAND_COLOR = "#d9b36c"
+WIRE_COLOR = "#1f4e9c"
+WALL_COLOR = "#9aa5b1"
+SLACK_COLOR = "#b0b0b0"
+BROKEN_COLOR = "#d62728"
+WEAK_COLOR = "#c8c8c8"
+NAN_COLOR = "#e6e6e6"
+
+
+def headless_backend() -> str | None:
+    """Choose VTK's off-screen GL window when there is no display (see module doc).
+
+    Sets ``VTK_DEFAULT_OPENGL_WINDOW=vtkEGLRenderWindow`` when neither ``DISPLAY`` nor
+    ``WAYLAND_DISPLAY`` nor that variable is set; returns the variable's value.
+    Call before the first render window is made (``plotter`` does).
+    """
+    key = "VTK_DEFAULT_OPENGL_WINDOW"
+    if key not in os.environ and not os.environ.get("DISPLAY") \
+            and not os.environ.get("WAYLAND_DISPLAY"):
+        os.environ[key] = "vtkEGLRenderWindow"
+    return os.environ.get(key)
+
+
+def theme():
+    """The fixed :class:`pyvista.themes.Theme` of every picture (a fresh copy)."""
+    import pyvista as pv
+
+    t = pv.themes.DocumentTheme()
+    t.background = "white"
+    t.window_size = list(WINDOW_SIZE)
+    t.font.family = "arial"
+    t.font.color = "black"
+    t.font.size = 14
+    t.font.title_size = 14
+    t.font.label_size = 12
+    t.font.fmt = "%.3g"
+    t.multi_samples = 0
+    t.anti_aliasing = None
+    t.smooth_shading = False  # True breaks point-Gaussian colours (PyVista 0.49); tubes ask for it
+    t.show_scalar_bar = False
+    t.colorbar_orientation = "vertical"
+    t.colorbar_vertical.position_x = 0.86
+    t.colorbar_vertical.position_y = 0.1
+    t.colorbar_vertical.width = 0.06
+    t.colorbar_vertical.height = 0.8
+    t.cmap = "viridis"
+    t.nan_color = NAN_COLOR
+    return t
+
+
+def _bar(title: str, **kw) -> dict:
+    args = dict(title=title, vertical=True, n_labels=5, fmt="%.3g", color="black",
+                font_family="arial", title_font_size=14, label_font_size=12,
+                position_x=0.86, position_y=0.1, width=0.06, height=0.8)
+    args.update(kw)
+    return args
+
+
+def set_camera(pl, camera="iso", bounds=None, zoom: float = 1.0) -> None:
+    """Place the camera of plotter ``pl``.
+
+    ``camera`` is a preset name of :data:`CAMERAS` (looking at the centre of ``bounds``,
+    a (2, 3) array [m], or of the plotter's props, then fitted to them), or an explicit
+    ``(position, focal_point, view_up)`` triple [m].
+    """
+    if isinstance(camera, str):
+        if camera not in CAMERAS:
+            raise ValueError(f"unknown camera {camera!r}; presets are {sorted(CAMERAS)}")
+        direction, up = (np.asarray(v, float) for v in CAMERAS[camera])
+        b = np.asarray(bounds, float) if bounds is not None else \
+            np.asarray(pl.bounds, float).reshape(3, 2).T
+        focal = 0.5 * (b[0] + b[1])
+        size = float(np.linalg.norm(b[1] - b[0])) or 1.0
+        pos = focal + direction / np.linalg.norm(direction) * 3.0 * size
+        pl.camera_position = [tuple(pos), tuple(focal), tuple(up)]
+        pl.reset_camera(bounds=(b[0, 0], b[1, 0], b[0, 1], b[1, 1], b[0, 2], b[1, 2]))
+    else:
+        try:
+            pos, focal, up = (tuple(float(x) for x in v) for v in camera)
+        except (TypeError, ValueError):
+            raise ValueError("camera must be a preset name or (position, focal_point, "
+                             f"view_up), got {camera!r}") from None
+        pl.camera_position = [pos, focal, up]
+    if zoom != 1.0:
+        pl.camera.zoom(float(zoom))
+
+
+# -- preset builders -----------------------------------------------------------------------
+def add_walls(pl, model, state, *, opacity: float = 0.15, color=WALL_COLOR, **options) -> None:
+    """Walls as translucent surfaces (``options`` go to :func:`workbench.meshes.wall_part`)."""
+    part = meshes.wall_part(model, state, **options)
+    if part is not None and opacity > 0:
+        pl.add_mesh(part.to_polydata(), color=color, opacity=float(opacity), smooth_shading=False,
+                    show_scalar_bar=False, lighting=True, name="walls")
+
+
+def _spheres(pl, part, name: str, scalars=None, **kw):
+    """Spheres at their true radius as point-Gaussian sphere impostors (cheap for 10⁵
+    beads; exact silhouettes)."""
+    mesh = part.to_polydata()
+    actor = pl.add_mesh(mesh, style="points_gaussian", render_points_as_spheres=True,
+                        emissive=False, smooth_shading=False, scalars=scalars, name=name, **kw)
+    mapper = actor.mapper
+    mapper.scale_array = "radius"
+    mapper.SetScaleFactor(1.0)
+    return actor
+
+
+def _select(part, mask):
+    """Sub-part of a vertex part (points where ``mask``)."""
+    idx = np.flatnonzero(mask)
+    return meshes.Part(points=part.points[idx], cell_type="vertex",
+                       cells=np.arange(idx.size, dtype=np.int64).reshape(-1, 1),
+                       point_data={k: v[idx] for k, v in part.point_data.items()})
+
+
+def add_beads(pl, model, state, *, walls: bool = True, wall_opacity: float = 0.15,
+              color_by: str = "kind", clim=None, cmap="viridis", cut=None) -> None:
+    """Preset ``beads``: spheres coloured by ``color_by`` = ``"kind"`` (sand / wire,
+    categorical bar), ``"speed"`` [m/s] or ``"group"``; translucent walls.
+
+    ``cut`` = (3,) direction: leave out the sand grains whose centre lies on that side of
+    the plane through the scene centre normal to it (e.g. ``cut=(0, -1, 0)`` with the
+    ``front`` camera opens the sample and shows the wire); wire beads are always drawn.
+    """
+    part = meshes.bead_part(model, state)
+    if cut is not None:
+        d = np.asarray(cut, float)
+        if d.shape != (3,) or not np.any(d):
+            raise ValueError(f"cut must be a non-zero 3-vector, got {cut!r}")
+        centre = meshes.scene_bounds(model, state).mean(axis=0)
+        keep = ((part.points - centre) @ d <= 0) | (part.point_data["kind"] == meshes.BEAD_WIRE)
+        part = _select(part, keep)
+    if part.n_points:
+        if color_by == "kind":
+            _spheres(pl, part, "beads", scalars="kind", cmap=[SAND_COLOR, WIRE_COLOR],
+                     clim=(-0.5, 1.5), n_colors=2, show_scalar_bar=True,
+                     scalar_bar_args=_bar("bead kind", n_labels=0, height=0.25, position_y=0.6),
+                     annotations={meshes.BEAD_SAND: "sand", meshes.BEAD_WIRE: "wire"})
+        elif color_by in ("speed", "group"):
+            title = "speed [m/s]" if color_by == "speed" else "group"
+            if clim is None:  # explicit: the point-Gaussian mapper's bar would show 0-1
+                v = part.point_data[color_by]
+                clim = (float(v.min()), float(v.max())) if v.max() > v.min() else (0.0, 1.0)
+            _spheres(pl, part, "beads", scalars=color_by, cmap=cmap, clim=clim,
+                     show_scalar_bar=True, scalar_bar_args=_bar(title))
+        else:
+            raise ValueError(f"color_by must be 'kind', 'speed' or 'group', got {color_by!r}")
+    if walls:
+        add_walls(pl, model, state, opacity=wall_opacity)
+
+
+def _tube_lines(part, values, radius, mask, n_sides: int):
+    """Tubes around the line cells of ``part`` where ``mask``, of per-line ``radius`` [m]
+    (constant along a line: a line part owns its two points), carrying ``values``."""
+    import pyvista as pv
+
+    idx = np.flatnonzero(mask)
+    if idx.size == 0:
+        return None
+    pts = part.points.reshape(-1, 2, 3)[idx].reshape(-1, 3)
+    k = idx.size
+    conn = np.column_stack([np.full(k, 2), 2 * np.arange(k), 2 * np.arange(k) + 1]).ravel()
+    lines = pv.PolyData(pts, lines=conn)
+    lines.point_data["tube_radius"] = np.repeat(np.asarray(radius, float)[idx], 2)
+    lines.point_data["value"] = np.repeat(np.asarray(values, float)[idx], 2)
+    return lines.tube(scalars="tube_radius", absolute=True, n_sides=n_sides, capping=True)
+
+
+def add_wire(pl, model, state, *, max_radius: float | None = None, slack: float = 0.02,
+             clim=None, cmap="plasma", beads: bool = False, walls: bool = True,
+             wall_opacity: float = 0.1, n_sides: int = 10) -> None:
+    """Preset ``wire``: tension network.
+
+    Each taut link (tension T > ``slack`` × max T) is a tube of radius
+    ``max_radius`` × sqrt(T / max T) (tube area ∝ tension; ``max_radius`` defaults to the
+    largest bead radius) coloured by T [N] over ``clim`` (default (0, max T)); slack links
+    are thin grey tubes (radius ``max_radius``/8), broken ones thin red.  ``beads=True``
+    also draws the wire beads faintly.
+    """
+    part = meshes.wire_part(model, state)
+    if walls:
+        add_walls(pl, model, state, opacity=wall_opacity)
+    if part is None:
+        return
+    t = part.cell_data["tension"]
+    broken = part.cell_data["broken"].astype(bool)
+    rb = model.body_radius[model.link_i] if model.n_links else np.zeros(0)
+    rmax = float(max_radius) if max_radius is not None else float(rb.max())
+    tmax = float(max(t.max(), 0.0))
+    taut = (~broken) & (t > slack * tmax) if tmax > 0 else np.zeros(len(t), bool)
+    thin = np.full(len(t), rmax / 8.0)
+    rad = np.where(taut, rmax * np.sqrt(np.clip(t, 0.0, None) / (tmax or 1.0)), thin)
+    rad = np.maximum(rad, rmax / 8.0)
+    for mask, name, kw in (
+            ((~taut) & (~broken), "slack", dict(color=SLACK_COLOR)),
+            (broken, "broken", dict(color=BROKEN_COLOR))):
+        tubes = _tube_lines(part, t, rad, mask, n_sides)
+        if tubes is not None:
+            pl.add_mesh(tubes, name=f"wire_{name}", show_scalar_bar=False, smooth_shading=True, **kw)
+    tubes = _tube_lines(part, t, rad, taut, n_sides)
+    lim = clim if clim is not None else (0.0, tmax if tmax > 0 else 1.0)
+    if tubes is not None:
+        pl.add_mesh(tubes, scalars="value", cmap=cmap, clim=lim, name="wire_taut", smooth_shading=True,
+                    show_scalar_bar=True, scalar_bar_args=_bar("tension [N]"))
+    if beads:
+        bp = meshes.bead_part(model, state)
+        wb = _select(bp, bp.point_data["kind"] == meshes.BEAD_WIRE)
+        if wb.n_points:
+            _spheres(pl, wb, "wire_beads", color=WIRE_COLOR, opacity=0.25)
+
+
+def add_forces(pl, model, state, *, strong: float = 1.0, max_radius: float | None = None,
+               clim=None, cmap="plasma", walls: bool = True, wall_opacity: float = 0.1,
+               weak: bool = True, n_sides: int = 8) -> None:
+    """Preset ``forces``: force chains.
+
+    Contacts with fn > ``strong`` × mean fn (the strong network) are tubes of radius
+    ``max_radius`` × fn / max fn (default: the mean sphere radius × 0.5) coloured by fn [N]
+    over ``clim`` (default: from the strong-network threshold to max fn); the weak
+    network is drawn as 1-px light-grey lines (``weak=False`` hides it).
+    """
+    part = meshes.contact_part(model, state)
+    if walls:
+        add_walls(pl, model, state, opacity=wall_opacity)
+    if part is None:
+        return
+    fn = part.cell_data["normal_force"]
+    fmax = float(fn.max()) if fn.size else 0.0
+    rmax = float(max_radius) if max_radius is not None else \
+        0.5 * float(model.body_radius[model.sphere_ids].mean())
+    threshold = float(strong) * float(fn.mean())
+    is_strong = fn > threshold if fmax > 0 else np.zeros(len(fn), bool)
+    rad = rmax * np.clip(fn / (fmax or 1.0), 0.0, 1.0)
+    thin = rmax / 10.0
+    if weak and np.any(~is_strong):
+        idx = np.flatnonzero(~is_strong)
+        lines = meshes.Part(points=part.points.reshape(-1, 2, 3)[idx].reshape(-1, 3),
+                            cell_type="line", cells=np.arange(2 * idx.size).reshape(-1, 2))
+        pl.add_mesh(lines.to_polydata(), color=WEAK_COLOR, line_width=1.0, lighting=False,
+                    name="forces_weak", show_scalar_bar=False)
+    tubes = _tube_lines(part, fn, np.maximum(rad, thin), is_strong, n_sides)
+    lim = clim if clim is not None else ((threshold, fmax) if fmax > threshold else (0.0, 1.0))
+    if tubes is not None:
+        pl.add_mesh(tubes, scalars="value", cmap=cmap, clim=lim, name="forces_strong", smooth_shading=True,
+                    show_scalar_bar=True, scalar_bar_args=_bar("normal force [N]"))
+
+
+def _cylinder_of(model, state):
+    from engine.prep.containers import Cylinder
+
+    cyl = [w for w in model.wall_ids if model.body_kind[w] == 2]
+    if not cyl:
+        raise ValueError("preset 'torus' needs cylinder=Cylinder(...): the scene has no cylinder")
+    w = cyl[0]
+    if not np.allclose(model.body_axis[w], (0.0, 0.0, 1.0)):
+        raise ValueError("toroidal maps need a vertical (+z) cylinder")
+    return Cylinder(radius=float(model.body_radius[w]), height=float(model.body_height[w]),
+                    center=tuple(state.position[w]))
+
+
+def add_torus(pl, model, state, *, cylinder=None, tmap=None, n_r: int = 5, n_z: int = 10,
+              part: str = "wire", field: str = "equivalent", clim=None, cmap="viridis",
+              sweep: float = 270.0, resolution: int = 72, camera="iso") -> None:
+    """Preset ``torus`` on a plotter of shape (1, 2): the (r, z) section (left) and the
+    revolved view (right) of a toroidal map.
+
+    ``tmap`` (an :class:`engine.analysis.ToroidalMap`) is computed with
+    :func:`engine.analysis.toroidal_map` (``cylinder``, ``n_r``, ``n_z``, ``part``) when
+    not given; ``cylinder`` defaults to the scene's first (vertical) cylinder.  ``field``
+    is ``"equivalent"`` (‖dev σ‖ [Pa]) or ``"pressure"`` (−tr σ / 3 [Pa], compression
+    positive).
+    """
+    import pyvista as pv
+
+    if tmap is None:
+        from engine.analysis import toroidal_map
+
+        if cylinder is None:
+            cylinder = _cylinder_of(model, state)
+        tmap = toroidal_map(model, state, cylinder, n_r=n_r, n_z=n_z, part=part)
+    if field == "equivalent":
+        values, title = tmap.equivalent, f"eq. stress\n{part} [Pa]"
+    elif field == "pressure":
+        values = -np.trace(tmap.stress, axis1=2, axis2=3) / 3.0
+        title = f"pressure\n{part} [Pa]"
+    else:
+        raise ValueError(f"field must be 'equivalent' or 'pressure', got {field!r}")
+    re_, ze = np.asarray(tmap.r_edges, float), np.asarray(tmap.z_edges, float)
+    nr, nz = len(re_) - 1, len(ze) - 1
+    finite = values[np.isfinite(values)]
+    lim = clim if clim is not None else (
+        (float(finite.min()), float(finite.max())) if finite.size and finite.max() > finite.min()
+        else (0.0, float(finite.max()) if finite.size and finite.max() > 0 else 1.0))
+    flat = np.asarray(values, float).ravel(order="F")  # cell (a, b) at a + nr*b (VTK order)
+
+    # left: the (r, z) section, drawn in the x-y plane (r along x, z along y)
+    sec = pv.RectilinearGrid(re_, ze, np.array([0.0]))
+    sec.cell_data[title] = flat
+    pl.subplot(0, 0)
+    pl.add_text("section (r, z)", font_size=10, color="black", position="upper_left")
+    pl.add_mesh(sec, scalars=title, cmap=cmap, clim=lim, nan_color=NAN_COLOR, show_edges=True,
+                edge_color="white", lighting=False, show_scalar_bar=True,
+                scalar_bar_args=_bar(title, position_x=0.80, width=0.08))
+    pl.show_bounds(xtitle="r [m]", ytitle="z [m]", ztitle="", show_zaxis=False, color="black",
+                   font_size=10, fmt="%.2g", location="front", grid=False, use_2d=True,
+                   n_xlabels=3, n_ylabels=5)
+    set_camera(pl, "top", bounds=np.array([[re_[0], ze[0], 0.0], [re_[-1], ze[-1], 0.0]]))
+    pl.enable_parallel_projection()
+    pl.reset_camera()
+    pl.camera.zoom(0.85)
+
+    # right: revolved about the axis over `sweep` degrees
+    k = max(2, int(round(resolution * sweep / 360.0)))
+    th = np.deg2rad(np.linspace(0.0, float(sweep), k + 1))
+    rr, tt, zz = np.meshgrid(re_, th, ze, indexing="ij")
+    c = np.asarray(tmap_center(cylinder, model, state), float)
+    grid = pv.StructuredGrid(c[0] + rr * np.cos(tt), c[1] + rr * np.sin(tt), c[2] + zz)
+    # cells of the structured grid in VTK order (r fastest, then θ, then z)
+    cell = np.asarray(values, float)[:, None, :].repeat(k, axis=1)  # (nr, k, nz)
+    grid.cell_data[title] = cell.ravel(order="F")
+    pl.subplot(0, 1)
+    pl.add_text(f"revolved ({sweep:g} deg)", font_size=10, color="black", position="upper_left")
+    pl.add_mesh(grid.extract_surface(algorithm="dataset_surface"), scalars=title, cmap=cmap,
+                clim=lim, nan_color=NAN_COLOR, show_scalar_bar=False, smooth_shading=False)
+    lo = c - (re_[-1], re_[-1], 0.0)
+    hi = c + (re_[-1], re_[-1], ze[-1])
+    set_camera(pl, camera, bounds=np.array([lo, hi]))
+
+
+def tmap_center(cylinder, model, state):
+    """Base centre [m] of the cylinder of a toroidal map (``cylinder`` or the scene's)."""
+    if cylinder is None:
+        try:
+            cylinder = _cylinder_of(model, state)
+        except ValueError:
+            return (0.0, 0.0, 0.0)
+    return cylinder.center
+
+
+# -- entry points --------------------------------------------------------------------------
+def plotter(model, state, preset: str = "beads", *, camera="iso", window_size=WINDOW_SIZE,
+            zoom: float = 1.0, title: str | None = None, **options):
+    """An off-screen :class:`pyvista.Plotter` holding the picture of ``preset`` (see the
+    module doc; ``options`` go to the preset's builder).  The caller closes it."""
+    if preset not in PRESETS:
+        raise ValueError(f"unknown preset {preset!r}; presets are {list(PRESETS)}")
+    w, h = (int(v) for v in window_size)
+    if w < 16 or h < 16:
+        raise ValueError(f"window_size must be at least 16 x 16 px, got {window_size!r}")
+    headless_backend()
+    import pyvista as pv
+
+    shape = (1, 2) if preset == "torus" else (1, 1)
+    pl = pv.Plotter(off_screen=True, window_size=[w, h], theme=theme(), shape=shape,
+                    border=False)
+    try:
+        if preset == "torus":
+            add_torus(pl, model, state, camera=camera, **options)
+            if zoom != 1.0:
+                pl.camera.zoom(float(zoom))
+        else:
+            {"beads": add_beads, "wire": add_wire, "forces": add_forces}[preset](
+                pl, model, state, **options)
+            set_camera(pl, camera, bounds=meshes.scene_bounds(model, state), zoom=zoom)
+        text = title if title is not None else f"t = {float(state.time):.4g} s"
+        if text:
+            pl.add_text(text, position="lower_left", font_size=10, color="black",
+                        name="title")
+    except Exception:
+        pl.close()
+        raise
+    return pl
+
+
+def snapshot(model, state, path, preset: str = "beads", *, camera="iso",
+             window_size=WINDOW_SIZE, **options) -> Path:
+    """Render ``preset`` off-screen to the PNG ``path`` (parent directories created) and
+    return the path.  See :func:`plotter` for ``camera``, ``window_size``, ``zoom``,
+    ``title`` and the module doc for each preset's ``options``."""
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    pl = plotter(model, state, preset, camera=camera, window_size=window_size, **options)
+    try:
+        pl.screenshot(str(path), transparent_background=False)
+    finally:
+        pl.close()
+    return path

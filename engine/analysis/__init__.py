@@ -10,7 +10,9 @@
   cylinder's outer particles;
 * :func:`toroidal_map` — Weber stress on (r, z) torus cells (Fig. 13c);
 * :func:`macro_stiffness` — H, the slope of the linear part of (ε_zz, σ_w^eq) (Table 2);
-* :func:`slope_profile` — h(r), floor pressure p(r), regressions, maximum slope (Fig. 10).
+* :func:`slope_profile` — h(r), floor pressure p(r), regressions, maximum slope (Fig. 10);
+* :mod:`engine.analysis.wire` — wire length density, orientation tensor, direction
+  histograms (Fig. 8-9), tortuosity (Fig. 7).
 """
 from .curves import MacroStiffness, macro_stiffness
 from .network import (ForceNetwork, box_strain, cylinder_strain, force_network, wall_forces,
@@ -19,8 +21,12 @@ from .profiles import SlopeProfile, slope_profile
 from .strain import StrainResult, best_fit_strain
 from .stress import StressResult, equivalent_stress, principal, weber_stress
 from .torus import ToroidalMap, toroidal_map
+from .wire import (WireStats, direction_histogram, length_density, orientation_tensor,
+                   tortuosity, wire_chains, wire_length, wire_stats)
 
 __all__ = ["weber_stress", "equivalent_stress", "principal", "StressResult", "best_fit_strain",
            "StrainResult", "force_network", "ForceNetwork", "wall_forces", "toroidal_map",
            "ToroidalMap", "macro_stiffness", "MacroStiffness", "slope_profile", "SlopeProfile",
-           "wall_stress", "box_strain", "cylinder_strain"]
+           "wall_stress", "box_strain", "cylinder_strain", "wire_chains", "wire_length",
+           "length_density", "orientation_tensor", "direction_histogram", "tortuosity",
+           "WireStats", "wire_stats"]

@@ -1,5 +1,20 @@
-"""Sample preparation (paper §2.4).  Containers are here; granulometry, the wire random walk
-(Eq. 16-17), the geometric deposit and relaxation come with the sample-preparation issue."""
-from .containers import Box, Cylinder, Sphere, TorusCell
+"""Sample preparation (paper §2.4).
 
-__all__ = ["Box", "Cylinder", "Sphere", "TorusCell"]
+* :mod:`~engine.prep.granulometry` — grain radii (uniform in diameter by number or by
+  volume, two-size mixes);
+* :func:`random_walk` — the wire, bead by bead (Eq. 16-17);
+* :func:`geometric` — the 3D geometric deposit of the sand around the wire;
+* :func:`relax` — a deposit under gravity until the kinetic energy has died out;
+* :func:`paper_sample` — the paper's cylinder, box and slope samples at a scale factor;
+* :class:`Box`, :class:`Cylinder`, :class:`Sphere` — containers (also analysis regions).
+"""
+from . import granulometry
+from .containers import Box, Cylinder, Sphere, TorusCell
+from .deposit import DepositError, geometric
+from .relax import RelaxReport, kinetic_energy, relax
+from .samples import PAPER, Sample, box_sample, cylinder_sample, paper_sample, slope_sample
+from .wire import KM_PER_M3, random_walk
+
+__all__ = ["Box", "Cylinder", "Sphere", "TorusCell", "granulometry", "random_walk", "KM_PER_M3",
+           "geometric", "DepositError", "relax", "RelaxReport", "kinetic_energy", "Sample",
+           "paper_sample", "cylinder_sample", "box_sample", "slope_sample", "PAPER"]

@@ -47,6 +47,15 @@ class Box:
         p = np.atleast_2d(p)
         return np.all((p >= self.lo) & (p <= self.hi), axis=1)
 
+    def shrunk(self, margin: float) -> "Box":
+        """The box of the points at distance >= ``margin`` [m] from every face."""
+        m = float(margin)
+        return Box(np.add(self.lo, m), np.subtract(self.hi, m))
+
+    def bounds(self):
+        """(lo, hi) of the bounding box [m]."""
+        return np.array(self.lo), np.array(self.hi)
+
 
 @dataclass(frozen=True)
 class Cylinder:
@@ -70,6 +79,15 @@ class Cylinder:
         d = np.atleast_2d(p) - self.center
         return (np.hypot(d[:, 0], d[:, 1]) <= self.radius) & (d[:, 2] >= 0) & (d[:, 2] <= self.height)
 
+    def shrunk(self, margin: float) -> "Cylinder":
+        """The cylinder of the points at distance >= ``margin`` [m] from its side, base and top."""
+        m = float(margin)
+        return Cylinder(self.radius - m, self.height - 2 * m, np.add(self.center, (0, 0, m)))
+
+    def bounds(self):
+        c = np.array(self.center)
+        return c - (self.radius, self.radius, 0.0), c + (self.radius, self.radius, self.height)
+
 
 @dataclass(frozen=True)
 class Sphere:
@@ -88,6 +106,13 @@ class Sphere:
 
     def contains(self, p) -> np.ndarray:
         return np.linalg.norm(np.atleast_2d(p) - self.center, axis=1) <= self.radius
+
+    def shrunk(self, margin: float) -> "Sphere":
+        return Sphere(self.radius - float(margin), self.center)
+
+    def bounds(self):
+        c = np.array(self.center)
+        return c - self.radius, c + self.radius
 
 
 @dataclass(frozen=True)

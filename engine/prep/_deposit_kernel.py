@@ -1,0 +1,485 @@
+"""Numba kernel of the 3D geometric deposit (see :mod:`engine.prep.deposit`).
+
+Constraints are integers: ``c >= 0`` is a sphere (an obstacle or a grain already placed);
+``c < 0`` is the wall ``-c - 1`` of the container: wall 0 is the floor; for a box, walls
+1-4 are x = lo, x = hi, y = lo, y = hi; for a cylinder, wall 1 is its side.  A pocket is
+three constraints and a root sign: the centre of a sphere of radius r touching the three.
+"""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from numba import njit
+
+EPS_OVERLAP = 1e-10        # relative tolerance of the overlap test (centre distances)
+CYL = -2                   # the cylinder side's constraint id
+
+
+@njit(cache=True)
+def _plane(c, r, phi, wall_n, wall_d, cyl, out):
+    """Centre-plane of wall constraint ``c`` for a sphere of radius r: out = (nx, ny, nz, d)
+    with n·x = d at tangency (n points into the container)."""
+    w = -c - 1
+    if cyl[2] > 0 and w == 1:
+        cp, sp = math.cos(phi), math.sin(phi)
+        out[0], out[1], out[2] = -cp, -sp, 0.0
+        out[3] = -(cp * cyl[0] + sp * cyl[1]) - cyl[2] + r
+    else:
+        out[0], out[1], out[2] = wall_n[w, 0], wall_n[w, 1], wall_n[w, 2]
+        out[3] = wall_d[w] + r
+
+
+@njit(cache=True)
+def _solve_once(a, b, c, sg, r, phi, X, Y, Z, R, wall_n, wall_d, cyl, work, out):
+    """One solve with the cylinder side (if any) frozen as its tangent plane at angle phi."""
+    cons = (a, b, c)
+    # the first sphere constraint is the origin and the quadratic; the rest are linear
+    s0 = -1
+    for k in range(3):
+        if cons[k] >= 0:
+            s0 = cons[k]
+            break
+    if s0 < 0:
+        # three planes: Cramer's rule
+        for k in range(3):
+            _plane(cons[k], r, phi, wall_n, wall_d, cyl, work[k])
+        a11, a12, a13, b1 = work[0, 0], work[0, 1], work[0, 2], work[0, 3]
+        a21, a22, a23, b2 = work[1, 0], work[1, 1], work[1, 2], work[1, 3]
+        a31, a32, a33, b3 = work[2, 0], work[2, 1], work[2, 2], work[2, 3]
+        det = a11 * (a22 * a33 - a23 * a32) - a12 * (a21 * a33 - a23 * a31) + a13 * (a21 * a32 - a22 * a31)
+        if abs(det) < 1e-12:
+            return False
+        out[0] = (b1 * (a22 * a33 - a23 * a32) - a12 * (b2 * a33 - a23 * b3) + a13 * (b2 * a32 - a22 * b3)) / det
+        out[1] = (a11 * (b2 * a33 - a23 * b3) - b1 * (a21 * a33 - a23 * a31) + a13 * (a21 * b3 - b2 * a31)) / det
+        out[2] = (a11 * (a22 * b3 - b2 * a32) - a12 * (a21 * b3 - b2 * a31) + b1 * (a21 * a32 - a22 * a31)) / det
+        return True
+    ox, oy, oz = X[s0], Y[s0], Z[s0]
+    R0 = R[s0] + r
+    m = 0
+    for k in range(3):
+        ck = cons[k]
+        if ck >= 0:
+            if ck == s0:
+                continue
+            px, py, pz = X[ck] - ox, Y[ck] - oy, Z[ck] - oz
+            Rk = R[ck] + r
+            work[m, 0], work[m, 1], work[m, 2] = 2.0 * px, 2.0 * py, 2.0 * pz
+            work[m, 3] = R0 * R0 - Rk * Rk + px * px + py * py + pz * pz
+        else:
+            _plane(ck, r, phi, wall_n, wall_d, cyl, work[m])
+            work[m, 3] -= work[m, 0] * ox + work[m, 1] * oy + work[m, 2] * oz
+        m += 1
+    a1x, a1y, a1z, b1 = work[0, 0], work[0, 1], work[0, 2], work[0, 3]
+    a2x, a2y, a2z, b2 = work[1, 0], work[1, 1], work[1, 2], work[1, 3]
+    dx = a1y * a2z - a1z * a2y
+    dy = a1z * a2x - a1x * a2z
+    dz = a1x * a2y - a1y * a2x
+    dd = dx * dx + dy * dy + dz * dz
+    n1 = a1x * a1x + a1y * a1y + a1z * a1z
+    n2 = a2x * a2x + a2y * a2y + a2z * a2z
+    if dd <= 1e-16 * n1 * n2:
+        return False
+    # p0 = (b1 (a2 × d) + b2 (d × a1)) / |d|²: the point of the line closest to the origin
+    ux = a2y * dz - a2z * dy
+    uy = a2z * dx - a2x * dz
+    uz = a2x * dy - a2y * dx
+    vx = dy * a1z - dz * a1y
+    vy = dz * a1x - dx * a1z
+    vz = dx * a1y - dy * a1x
+    p0x = (b1 * ux + b2 * vx) / dd
+    p0y = (b1 * uy + b2 * vy) / dd
+    p0z = (b1 * uz + b2 * vz) / dd
+    inv = 1.0 / math.sqrt(dd)
+    ex, ey, ez = dx * inv, dy * inv, dz * inv
+    B = p0x * ex + p0y * ey + p0z * ez
+    C = p0x * p0x + p0y * p0y + p0z * p0z - R0 * R0
+    disc = B * B - C
+    if disc < 0.0:
+        return False
+    t = -B + sg * math.sqrt(disc)
+    out[0] = ox + p0x + t * ex
+    out[1] = oy + p0y + t * ey
+    out[2] = oz + p0z + t * ez
+    return True
+
+
+@njit(cache=True)
+def solve_pocket(a, b, c, sg, r, X, Y, Z, R, wall_n, wall_d, cyl, work, out):
+    """Centre ``out`` (3,) of a sphere of radius r touching constraints a, b, c (root sg).
+    A cylinder side is handled by a fixed point on its tangent plane."""
+    if not (cyl[2] > 0 and (a == CYL or b == CYL or c == CYL)):
+        return _solve_once(a, b, c, sg, r, 0.0, X, Y, Z, R, wall_n, wall_d, cyl, work, out)
+    # start from the angle of the first sphere constraint
+    phi = 0.0
+    for ck in (a, b, c):
+        if ck >= 0:
+            phi = math.atan2(Y[ck] - cyl[1], X[ck] - cyl[0])
+            break
+    for _ in range(30):
+        if not _solve_once(a, b, c, sg, r, phi, X, Y, Z, R, wall_n, wall_d, cyl, work, out):
+            return False
+        new = math.atan2(out[1] - cyl[1], out[0] - cyl[0])
+        dphi = new - phi
+        if dphi > math.pi:
+            dphi -= 2 * math.pi
+        elif dphi < -math.pi:
+            dphi += 2 * math.pi
+        phi = new
+        if abs(dphi) < 1e-14:
+            return True
+    return False
+
+
+@njit(cache=True)
+def _cell(x, lo, inv_h, n):
+    k = int(math.floor((x - lo) * inv_h))
+    return 0 if k < 0 else (n - 1 if k >= n else k)
+
+
+@njit(cache=True)
+def inside(x, y, z, r, box, cyl, top):
+    """Is a sphere (x, y, z, r) inside the container (boundary included, 1e-12 tolerance)?"""
+    tol = 1e-12 * r
+    if z < box[4] + r - tol or z > top - r + tol:
+        return False
+    if cyl[2] > 0:
+        dx, dy = x - cyl[0], y - cyl[1]
+        lim = cyl[2] - r + tol
+        return lim > 0 and dx * dx + dy * dy <= lim * lim
+    return (box[0] + r - tol <= x <= box[1] - r + tol) and (box[2] + r - tol <= y <= box[3] - r + tol)
+
+
+@njit(cache=True)
+def free(x, y, z, r, X, Y, Z, R, head, nxt, glo, inv_h, gn):
+    """No sphere overlaps (x, y, z, r) by more than EPS_OVERLAP of the contact distance."""
+    return overlapping(x, y, z, r, X, Y, Z, R, head, nxt, glo, inv_h, gn) < 0
+
+
+@njit(cache=True)
+def overlapping(x, y, z, r, X, Y, Z, R, head, nxt, glo, inv_h, gn):
+    """The first sphere overlapping (x, y, z, r), or -1."""
+    i0, j0, k0 = _cell(x, glo[0], inv_h, gn[0]), _cell(y, glo[1], inv_h, gn[1]), _cell(z, glo[2], inv_h, gn[2])
+    for i in range(max(i0 - 1, 0), min(i0 + 2, gn[0])):
+        for j in range(max(j0 - 1, 0), min(j0 + 2, gn[1])):
+            for k in range(max(k0 - 1, 0), min(k0 + 2, gn[2])):
+                q = head[(i * gn[1] + j) * gn[2] + k]
+                while q >= 0:
+                    d = R[q] + r
+                    dx, dy, dz = x - X[q], y - Y[q], z - Z[q]
+                    lim = d * (1.0 - EPS_OVERLAP)
+                    if dx * dx + dy * dy + dz * dz < lim * lim:
+                        return q
+                    q = nxt[q]
+    return -1
+
+
+@njit(cache=True)
+def stable(a, b, c, x, y, z, r, X, Y, Z, R, wall_n, cyl, work):
+    """Can gravity (−z) be balanced by non-negative normal forces of the three supports?"""
+    cons = (a, b, c)
+    for k in range(3):
+        ck = cons[k]
+        if ck >= 0:
+            inv = 1.0 / (R[ck] + r)
+            work[k, 0], work[k, 1], work[k, 2] = (x - X[ck]) * inv, (y - Y[ck]) * inv, (z - Z[ck]) * inv
+        elif cyl[2] > 0 and ck == CYL:
+            dx, dy = x - cyl[0], y - cyl[1]
+            inv = 1.0 / math.sqrt(dx * dx + dy * dy)
+            work[k, 0], work[k, 1], work[k, 2] = -dx * inv, -dy * inv, 0.0
+        else:
+            w = -ck - 1
+            work[k, 0], work[k, 1], work[k, 2] = wall_n[w, 0], wall_n[w, 1], wall_n[w, 2]
+    # solve λ0 n0 + λ1 n1 + λ2 n2 = e_z (columns n_k)
+    a11, a21, a31 = work[0, 0], work[0, 1], work[0, 2]
+    a12, a22, a32 = work[1, 0], work[1, 1], work[1, 2]
+    a13, a23, a33 = work[2, 0], work[2, 1], work[2, 2]
+    det = a11 * (a22 * a33 - a23 * a32) - a12 * (a21 * a33 - a23 * a31) + a13 * (a21 * a32 - a22 * a31)
+    if abs(det) < 1e-9:
+        return False
+    # Cramer's rule with right-hand side (0, 0, 1)
+    l0 = (a12 * a23 - a13 * a22) / det
+    l1 = (a13 * a21 - a11 * a23) / det
+    l2 = (a11 * a22 - a12 * a21) / det
+    return l0 >= -1e-9 and l1 >= -1e-9 and l2 >= -1e-9
+
+
+@njit(cache=True)
+def _drop(x, y, r, z_floor, X, Y, Z, R, head, nxt, glo, inv_h, gn, give_up):
+    """Height at which a sphere of radius r falling along the vertical through (x, y) first
+    touches a sphere or the floor (np.inf as soon as it exceeds ``give_up``)."""
+    z = z_floor + r
+    i0, j0 = _cell(x, glo[0], inv_h, gn[0]), _cell(y, glo[1], inv_h, gn[1])
+    for i in range(max(i0 - 1, 0), min(i0 + 2, gn[0])):
+        for j in range(max(j0 - 1, 0), min(j0 + 2, gn[1])):
+            for k in range(gn[2]):
+                q = head[(i * gn[1] + j) * gn[2] + k]
+                while q >= 0:
+                    d = R[q] + r
+                    h2 = (x - X[q]) ** 2 + (y - Y[q]) ** 2
+                    if h2 < d * d:
+                        zq = Z[q] + math.sqrt(d * d - h2) * (1.0 + 1e-12)
+                        if zq > z:
+                            z = zq
+                            if z >= give_up:
+                                return np.inf
+                    q = nxt[q]
+    return z
+
+
+@njit(cache=True)
+def _grid_add(q, x, y, z, head, nxt, glo, inv_h, gn):
+    i, j, k = _cell(x, glo[0], inv_h, gn[0]), _cell(y, glo[1], inv_h, gn[1]), _cell(z, glo[2], inv_h, gn[2])
+    c = (i * gn[1] + j) * gn[2] + k
+    nxt[q] = head[c]
+    head[c] = q
+
+
+@njit(cache=True)
+def _heap_push(keys, vals, n, key, val):
+    i = n
+    keys[i] = key
+    vals[i] = val
+    while i > 0:
+        p = (i - 1) >> 1
+        if keys[p] <= keys[i]:
+            break
+        keys[p], keys[i] = keys[i], keys[p]
+        vals[p], vals[i] = vals[i], vals[p]
+        i = p
+    return n + 1
+
+
+@njit(cache=True)
+def _heap_pop(keys, vals, n):
+    key, val = keys[0], vals[0]
+    n -= 1
+    keys[0], vals[0] = keys[n], vals[n]
+    i = 0
+    while True:
+        l = 2 * i + 1
+        if l >= n:
+            break
+        m = l
+        if l + 1 < n and keys[l + 1] < keys[l]:
+            m = l + 1
+        if keys[i] <= keys[m]:
+            break
+        keys[m], keys[i] = keys[i], keys[m]
+        vals[m], vals[i] = vals[i], vals[m]
+        i = m
+    return key, val, n
+
+
+@njit(cache=True)
+def _classify(a, b, c, sg, r_lo, r_hi, X, Y, Z, R, head, nxt, glo, inv_h, gn,
+              wall_n, wall_d, cyl, box, top, work, pos):
+    """(alive, key) of a pocket: dead if, for the smallest grain (or, when that one has no
+    solution, the largest), its position overlaps a sphere or is unstable; key = z of the
+    centre for the smallest grain, or a lower bound."""
+    for r in (r_lo, r_hi):
+        if solve_pocket(a, b, c, sg, r, X, Y, Z, R, wall_n, wall_d, cyl, work, pos):
+            if not stable(a, b, c, pos[0], pos[1], pos[2], r, X, Y, Z, R, wall_n, cyl, work):
+                return False, 0.0
+            if not free(pos[0], pos[1], pos[2], r, X, Y, Z, R, head, nxt, glo, inv_h, gn):
+                return False, 0.0
+            if r == r_lo:
+                return True, pos[2]
+            # no solution for the smallest grain: the lowest support is a lower bound
+            zmin = pos[2]
+            for ck in (a, b, c):
+                if ck >= 0 and Z[ck] < zmin:
+                    zmin = Z[ck]
+            # keep key + (r − r_lo) a lower bound of the height for every r (see the kernel)
+            return True, zmin - (r_hi - r_lo)
+    return False, 0.0
+
+
+@njit(cache=True)
+def deposit_kernel(radii, n_obs, X, Y, Z, R, wall_n, wall_d, nwall, cyl, box, top,
+                   glo, inv_h, gn, reach, floor_pts, max_pockets, support_obs):
+    """Place ``radii`` one by one at the lowest stable pocket (see deposit.geometric).
+
+    X, Y, Z, R hold the ``n_obs`` obstacles first and receive the grains after them.
+    Returns (number placed, status, number dropped): status 0 ok, 1 no room below the top,
+    2 pocket memory; "dropped" grains found no pocket and were dropped vertically.
+    """
+    nb_tot = X.shape[0]
+    head = -np.ones(gn[0] * gn[1] * gn[2], np.int64)
+    nxt = -np.ones(nb_tot, np.int64)
+    work = np.zeros((3, 4))
+    pos = np.zeros(3)
+    cap = 1 << 16
+    keys = np.empty(cap)
+    vals = np.empty(cap, np.int64)
+    nh = 0
+    pcap = 1 << 16
+    pa = np.empty(pcap, np.int64)
+    pb = np.empty(pcap, np.int64)
+    pc = np.empty(pcap, np.int64)
+    ps = np.empty(pcap, np.float64)
+    pmax = np.empty(pcap)          # grains this large or larger overlap something there
+    npk = 0
+    nbr = np.empty(4096, np.int64)
+    back = np.empty(4096, np.int64)
+    backk = np.empty(4096)
+    r_lo, r_hi = radii.min(), radii.max()
+    walls = np.empty(nwall, np.int64)
+    n_placed = 0
+    n_drop = 0
+    for s in range(n_obs + radii.shape[0]):
+        if s >= n_obs:
+            r = radii[s - n_obs]
+            R[s] = r
+            # pop pockets in key order until no lower one can beat the best found
+            best, bestz, bestk, nback = -1, np.inf, 0.0, 0
+            # a stable pocket rises at least as fast as the grain grows (dz/dr = Σλ_k >= 1 with
+            # e_z = Σ λ_k n_k, |n_k| = 1), so key + (r − r_lo) bounds its height from below
+            lift = r - r_lo
+            while nh > 0 and keys[0] + lift < bestz:
+                key, v, nh = _heap_pop(keys, vals, nh)
+                a, b, c, sg = pa[v], pb[v], pc[v], ps[v]
+                keep, cand = True, False
+                if r < pmax[v] and solve_pocket(a, b, c, sg, r, X, Y, Z, R, wall_n, wall_d,
+                                                cyl, work, pos):
+                    if pos[2] < bestz and inside(pos[0], pos[1], pos[2], r, box, cyl, top):
+                        q = overlapping(pos[0], pos[1], pos[2], r, X, Y, Z, R, head, nxt, glo, inv_h, gn)
+                        if q >= 0:
+                            # a sphere above the centre: larger grains, which sit higher,
+                            # hit it too (skip them); dead if the smallest grain no longer fits
+                            if Z[q] > pos[2] and r < pmax[v]:
+                                pmax[v] = r
+                            keep, key = _classify(a, b, c, sg, r_lo, r_hi, X, Y, Z, R, head, nxt,
+                                                  glo, inv_h, gn, wall_n, wall_d, cyl, box, top,
+                                                  work, pos)
+                        elif stable(a, b, c, pos[0], pos[1], pos[2], r, X, Y, Z, R, wall_n, cyl, work):
+                            cand = True
+                if cand:
+                    if best >= 0:
+                        back[nback], backk[nback] = best, bestk
+                        nback += 1
+                    best, bestz, bestk = v, pos[2], key
+                elif keep:
+                    back[nback], backk[nback] = v, key
+                    nback += 1
+                if nback >= back.shape[0] - 1:
+                    nb2 = np.empty(2 * back.shape[0], np.int64)
+                    nb2[:nback] = back[:nback]
+                    back = nb2
+                    bk2 = np.empty(2 * backk.shape[0])
+                    bk2[:nback] = backk[:nback]
+                    backk = bk2
+            for q in range(nback):
+                nh = _heap_push(keys, vals, nh, backk[q], back[q])
+            if best >= 0:
+                solve_pocket(pa[best], pb[best], pc[best], ps[best], r, X, Y, Z, R,
+                             wall_n, wall_d, cyl, work, pos)
+                X[s], Y[s], Z[s] = pos[0], pos[1], pos[2]
+            else:
+                # no pocket takes it: drop it vertically at the floor point where it lands
+                # lowest (resting on one support; the relaxation settles it)
+                bz, bq = np.inf, -1
+                for q in range(floor_pts.shape[0]):
+                    x, y = floor_pts[q, 0], floor_pts[q, 1]
+                    if not inside(x, y, box[4] + r, r, box, cyl, np.inf):
+                        continue
+                    z = _drop(x, y, r, box[4], X, Y, Z, R, head, nxt, glo, inv_h, gn, bz)
+                    if z < bz:
+                        bz, bq = z, q
+                if bq < 0:
+                    return n_placed, 1, n_drop
+                X[s], Y[s], Z[s] = floor_pts[bq, 0], floor_pts[bq, 1], bz
+                n_drop += 1
+            if Z[s] > top - r + 1e-12 * r:
+                return n_placed, 1, n_drop
+            n_placed += 1
+        _grid_add(s, X[s], Y[s], Z[s], head, nxt, glo, inv_h, gn)
+        if s < n_obs and not support_obs:
+            continue
+        # new pockets with s: neighbours within reach, walls within reach
+        xs, ys, zs, rs = X[s], Y[s], Z[s], R[s]
+        nn = 0
+        span = int(math.ceil((2 * (r_hi if r_hi > rs else rs) + 2 * reach) * inv_h))
+        i0, j0, k0 = _cell(xs, glo[0], inv_h, gn[0]), _cell(ys, glo[1], inv_h, gn[1]), _cell(zs, glo[2], inv_h, gn[2])
+        for i in range(max(i0 - span, 0), min(i0 + span + 1, gn[0])):
+            for j in range(max(j0 - span, 0), min(j0 + span + 1, gn[1])):
+                for k in range(max(k0 - span, 0), min(k0 + span + 1, gn[2])):
+                    q = head[(i * gn[1] + j) * gn[2] + k]
+                    while q >= 0:
+                        if q != s and (support_obs or q >= n_obs):
+                            d = rs + R[q] + 2 * reach
+                            dx, dy, dz = xs - X[q], ys - Y[q], zs - Z[q]
+                            if dx * dx + dy * dy + dz * dz <= d * d:
+                                if nn >= nbr.shape[0]:
+                                    n2 = np.empty(2 * nbr.shape[0], np.int64)
+                                    n2[:nn] = nbr[:nn]
+                                    nbr = n2
+                                nbr[nn] = q
+                                nn += 1
+                        q = nxt[q]
+        nw = 0
+        for w in range(nwall):
+            if cyl[2] > 0 and w == 1:
+                dist = cyl[2] - math.sqrt((xs - cyl[0]) ** 2 + (ys - cyl[1]) ** 2) - rs
+            else:
+                dist = wall_n[w, 0] * xs + wall_n[w, 1] * ys + wall_n[w, 2] * zs - wall_d[w] - rs
+            if dist <= 2 * reach:
+                walls[nw] = -w - 1
+                nw += 1
+        # candidate triples: (s, a, b), (s, a, wall), (s, wall, wall)
+        for ia in range(nn + nw):
+            ca = nbr[ia] if ia < nn else walls[ia - nn]
+            for ib in range(ia + 1, nn + nw):
+                cb = nbr[ib] if ib < nn else walls[ib - nn]
+                if ca >= 0 and cb >= 0:
+                    d = R[ca] + R[cb] + 2 * reach
+                    dx, dy, dz = X[ca] - X[cb], Y[ca] - Y[cb], Z[ca] - Z[cb]
+                    if dx * dx + dy * dy + dz * dz > d * d:
+                        continue
+                elif ca >= 0 or cb >= 0:
+                    sp = ca if ca >= 0 else cb
+                    wl = cb if ca >= 0 else ca
+                    w = -wl - 1
+                    if cyl[2] > 0 and w == 1:
+                        dist = cyl[2] - math.sqrt((X[sp] - cyl[0]) ** 2 + (Y[sp] - cyl[1]) ** 2) - R[sp]
+                    else:
+                        dist = (wall_n[w, 0] * X[sp] + wall_n[w, 1] * Y[sp] + wall_n[w, 2] * Z[sp]
+                                - wall_d[w] - R[sp])
+                    if dist > 2 * reach:
+                        continue
+                for sg in (-1.0, 1.0):
+                    alive, key = _classify(s, ca, cb, sg, r_lo, r_hi, X, Y, Z, R, head, nxt,
+                                           glo, inv_h, gn, wall_n, wall_d, cyl, box, top, work, pos)
+                    if not alive:
+                        continue
+                    if npk >= pcap:
+                        if pcap >= max_pockets:
+                            return n_placed, 2, n_drop
+                        pcap *= 2
+                        t1 = np.empty(pcap, np.int64)
+                        t1[:npk] = pa[:npk]
+                        pa = t1
+                        t2 = np.empty(pcap, np.int64)
+                        t2[:npk] = pb[:npk]
+                        pb = t2
+                        t3 = np.empty(pcap, np.int64)
+                        t3[:npk] = pc[:npk]
+                        pc = t3
+                        t4 = np.empty(pcap)
+                        t4[:npk] = ps[:npk]
+                        ps = t4
+                        t5 = np.empty(pcap)
+                        t5[:npk] = pmax[:npk]
+                        pmax = t5
+                    pa[npk], pb[npk], pc[npk], ps[npk], pmax[npk] = s, ca, cb, sg, np.inf
+                    if nh >= cap:
+                        cap *= 2
+                        k1 = np.empty(cap)
+                        k1[:nh] = keys[:nh]
+                        keys = k1
+                        v1 = np.empty(cap, np.int64)
+                        v1[:nh] = vals[:nh]
+                        vals = v1
+                    nh = _heap_push(keys, vals, nh, key, npk)
+                    npk += 1
+    return n_placed, 0, n_drop

@@ -1,0 +1,206 @@
+"""The paper's numerical TexSol samples, built in one call at a ``scale`` factor.
+
+``scale`` multiplies the number of particles and the volume (lengths by scale^(1/3)); grain
+and bead sizes and the wire density stay the paper's.  scale = 1 is the paper's size:
+
+=================  =====================  ===================  =================================
+sample             container              sand                 wire
+=================  =====================  ===================  =================================
+``cylinder``       Ø9 mm × 20 mm (§3.3)   6 200, Ø0.3–0.8 mm   250 km·m⁻³, r_w = 0.135 mm (≈1 100 beads)
+``box``            16 mm cube (§3.2)      6 500, Ø0.46–1.25 mm 200 km·m⁻³, r_w = r_min (≈1 600 beads)
+``slope``          Ø12 mm × 14 mm (§3.1)  26 000, Ø0.2–0.6 mm  400 km·m⁻³, r_w = 0.1 mm (≈2 900 beads),
+                                                               none in an outer layer 2 d_max thick
+=================  =====================  ===================  =================================
+
+Choices the paper leaves open, made here: the gap between beads is g_w = 0.2 r_w; the box's
+sand size (not given in the paper) is the one that fills the box with its 6 500 grains; the
+cylinder's bead radius is 0.9 r_min, the largest that gives its ~1 100 beads at 250 km·m⁻³;
+the slope's wire density is counted over the whole sample although the wire stays inside the
+outer layer.  The wire is built first by the isotropic walk (Eq. 16), then the sand by the
+geometric deposit around it.  Every sample is "only geometrically admissible": relax it
+(:func:`engine.prep.relax`) before a test.
+"""
+from __future__ import annotations
+
+import math
+import time
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from .. import laws as _laws
+from ..analysis.wire import wire_length
+from . import granulometry
+from .containers import Box, Cylinder
+from .deposit import geometric
+from .wire import KM_PER_M3, random_walk
+
+__all__ = ["Sample", "paper_sample", "cylinder_sample", "box_sample", "slope_sample", "PAPER"]
+
+PAPER = {
+    "cylinder": dict(diameter=9e-3, height=20e-3, n_sand=6200, d_min=0.3e-3, d_max=0.8e-3,
+                     wire_density=250 * KM_PER_M3, bead_radius=0.135e-3),
+    "box": dict(side=16e-3, n_sand=6500, d_min=0.46e-3, d_max=1.25e-3,
+                wire_density=200 * KM_PER_M3, bead_radius=0.23e-3),
+    "slope": dict(diameter=12e-3, height=14e-3, n_sand=26000, d_min=0.2e-3, d_max=0.6e-3,
+                  wire_density=400 * KM_PER_M3, bead_radius=0.1e-3),
+}
+"""The paper's sample parameters (SI)."""
+
+
+@dataclass
+class Sample:
+    """A geometric TexSol sample.
+
+    Attributes
+    ----------
+    name : str
+    container : Box | Cylinder      the mould [m].
+    sand_centers : (n, 3) [m];  sand_radii : (n,) [m]
+    wire : list of (k, 3) [m]       bead centres of each wire.
+    bead_radius : float [m];  gap : float [m]
+    wire_density : float [m·m⁻³]    built wire length / container volume.
+    info : dict                      counts, heights, timings [s].
+    """
+
+    name: str
+    container: object
+    sand_centers: np.ndarray
+    sand_radii: np.ndarray
+    wire: list
+    bead_radius: float
+    gap: float
+    wire_density: float
+    info: dict = field(default_factory=dict)
+
+    @property
+    def n_beads(self) -> int:
+        return int(sum(len(c) for c in self.wire))
+
+    @property
+    def height(self) -> float:
+        """Top of the highest particle above the container's floor [m]."""
+        z0 = self.container.bounds()[0][2]
+        tops = [self.sand_centers[:, 2] + self.sand_radii]
+        tops += [c[:, 2] + self.bead_radius for c in self.wire]
+        return float(np.concatenate(tops).max() - z0) if self.sand_radii.size or self.wire else 0.0
+
+    def add_to(self, scene, *, sand_group: str = "sand", wire_group: str = "wire",
+               sand_density: float = 2650.0, bead_density: float = 1400.0, wire_law=None):
+        """Add the sand and the wires to an :class:`engine.Scene`.
+
+        Returns (sand ids (n,), list of bead-id arrays, one per wire).  ``wire_law`` defaults
+        to ``ElasticWire(stiffness=1.0)`` (the paper's k = 1 N, §3.3).
+        """
+        law = _laws.ElasticWire(stiffness=1.0) if wire_law is None else wire_law
+        sand = scene.add_spheres(self.sand_centers, self.sand_radii, density=sand_density,
+                                 group=sand_group)
+        beads = [scene.add_wire(c, radius=self.bead_radius, density=bead_density,
+                                group=wire_group, law=law) for c in self.wire]
+        return sand, beads
+
+    def __str__(self):
+        i = self.info
+        return (f"{self.name} sample: {self.sand_radii.size} grains + {self.n_beads} beads in "
+                f"{len(self.wire)} wire(s) at {self.wire_density / KM_PER_M3:.1f} km·m⁻³, "
+                f"height {self.height * 1e3:.2f} mm (wire {i.get('wire_time', 0):.2f} s, "
+                f"deposit {i.get('deposit_time', 0):.2f} s)")
+
+
+def _build(name, container, wire_region, radii, *, wire, wire_density, bead_radius, seed,
+           deposit_height_factor=1.5):
+    bead_radius = float(bead_radius)
+    gap = 0.2 * bead_radius
+    t0 = time.perf_counter()
+    chains = []
+    if wire:
+        chains = random_walk(wire_region, bead_radius, gap,
+                             length=wire_density * container.volume, seed=seed,
+                             search_angle=math.pi / 4)
+    t1 = time.perf_counter()
+    obstacles = None
+    if chains:
+        b = np.vstack(chains)
+        obstacles = (b, np.full(b.shape[0], bead_radius))
+    # deposit in a taller mould: the sand's height is what it is, reported in info
+    if isinstance(container, Cylinder):
+        mould = Cylinder(container.radius, container.height * deposit_height_factor, container.center)
+    else:
+        lo, hi = np.array(container.lo), np.array(container.hi)
+        hi[2] = lo[2] + (hi[2] - lo[2]) * deposit_height_factor
+        mould = Box(lo, hi)
+    centers, r = geometric(radii, mould, obstacles=obstacles, seed=seed + 1)
+    t2 = time.perf_counter()
+    s = Sample(name=name, container=container, sand_centers=centers, sand_radii=r, wire=chains,
+               bead_radius=bead_radius, gap=gap,
+               wire_density=wire_length(chains) / container.volume if chains else 0.0)
+    s.info.update(wire_time=t1 - t0, deposit_time=t2 - t1, n_sand=int(r.size),
+                  n_beads=s.n_beads, n_wires=len(chains),
+                  sand_top=float((centers[:, 2] + r).max() - container.bounds()[0][2]))
+    return s
+
+
+def _scale(scale):
+    s = float(scale)
+    if not (math.isfinite(s) and s > 0):
+        raise ValueError(f"scale must be finite and > 0, got {scale!r}")
+    return s
+
+
+def cylinder_sample(scale: float = 1.0, *, wire: bool = True, wire_density: float | None = None,
+                    bead_radius: float | None = None, seed: int = 0) -> Sample:
+    """The cylinder triaxial sample (§3.3): Ø9 mm × 20 mm, 6 200 grains Ø0.3–0.8 mm and a wire
+    at 250 km·m⁻³ (about 1 100 beads) at scale 1.  ``wire=False``: sand only."""
+    p = PAPER["cylinder"]
+    s = _scale(scale)
+    L = s ** (1.0 / 3.0)
+    c = Cylinder(0.5 * p["diameter"] * L, p["height"] * L)
+    n = max(1, int(round(p["n_sand"] * s)))
+    radii = granulometry.uniform(p["d_min"], p["d_max"], n=n, seed=seed + 2)
+    return _build("cylinder", c, c, radii, wire=wire,
+                  wire_density=p["wire_density"] if wire_density is None else wire_density,
+                  bead_radius=p["bead_radius"] if bead_radius is None else bead_radius, seed=seed)
+
+
+def box_sample(scale: float = 1.0, *, wire: bool = True, wire_density: float | None = None,
+               bead_radius: float | None = None, seed: int = 0) -> Sample:
+    """The box triaxial sample (§3.2): a 16 mm cube, 6 500 grains and a wire at 200 km·m⁻³
+    (8 000 particles in all at scale 1).  ``bead_radius`` r_w (Fig. 12: r_min, r_min/3,
+    r_min/4; default r_min)."""
+    p = PAPER["box"]
+    s = _scale(scale)
+    a = p["side"] * s ** (1.0 / 3.0)
+    c = Box((0.0, 0.0, 0.0), (a, a, a))
+    n = max(1, int(round(p["n_sand"] * s)))
+    radii = granulometry.uniform(p["d_min"], p["d_max"], n=n, seed=seed + 2)
+    return _build("box", c, c, radii, wire=wire,
+                  wire_density=p["wire_density"] if wire_density is None else wire_density,
+                  bead_radius=p["bead_radius"] if bead_radius is None else bead_radius, seed=seed)
+
+
+def slope_sample(scale: float = 1.0, *, wire: bool = True, wire_density: float | None = None,
+                 bead_radius: float | None = None, seed: int = 0) -> Sample:
+    """The slope-deposit sample (§3.1): Ø12 mm × 14 mm, 26 000 grains Ø0.2–0.6 mm and a wire
+    at 400 km·m⁻³ (about 2 900 beads Ø0.2 mm), with no wire in an outer layer 2 d_max thick
+    (at most a quarter of the radius).  ``wire_density=800e3`` gives the paper's TexSol(2)."""
+    p = PAPER["slope"]
+    s = _scale(scale)
+    L = s ** (1.0 / 3.0)
+    c = Cylinder(0.5 * p["diameter"] * L, p["height"] * L)
+    layer = min(2 * p["d_max"], 0.25 * c.radius)
+    inner = Cylinder(c.radius - layer, c.height)
+    n = max(1, int(round(p["n_sand"] * s)))
+    radii = granulometry.uniform(p["d_min"], p["d_max"], n=n, seed=seed + 2)
+    return _build("slope", c, inner, radii, wire=wire,
+                  wire_density=p["wire_density"] if wire_density is None else wire_density,
+                  bead_radius=p["bead_radius"] if bead_radius is None else bead_radius, seed=seed)
+
+
+_BUILDERS = {"cylinder": cylinder_sample, "box": box_sample, "slope": slope_sample}
+
+
+def paper_sample(name: str, scale: float = 1.0, **kw) -> Sample:
+    """``paper_sample("cylinder" | "box" | "slope", scale, wire=..., seed=...)``."""
+    if name not in _BUILDERS:
+        raise ValueError(f"name must be one of {sorted(_BUILDERS)}, got {name!r}")
+    return _BUILDERS[name](scale, **kw)

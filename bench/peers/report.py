@@ -43,6 +43,24 @@ def _trace(rec: dict, window: int = 50) -> list:
     return out
 
 
+def _finite_max(x):
+    a = np.asarray(x, float)
+    a = a[np.isfinite(a)]
+    return float(a.max()) if a.size else None
+
+
+def _clean(obj):
+    """Strict JSON: non-finite floats (Siconos reports an infinite residual on steps with
+    no contact) become null."""
+    if isinstance(obj, float):
+        return obj if np.isfinite(obj) else None
+    if isinstance(obj, dict):
+        return {k: _clean(v) for k, v in obj.items()}
+    if isinstance(obj, (list, tuple)):
+        return [_clean(v) for v in obj]
+    return obj
+
+
 def _compact(run: dict | None) -> dict | None:
     """A run without its per-step arrays (they become 50-step window means)."""
     if run is None:
@@ -56,7 +74,9 @@ def _compact(run: dict | None) -> dict | None:
         out["sweeps"] = dict(mean=float(np.mean(rec["iterations"])),
                              max=int(np.max(rec["iterations"])),
                              steps_at_max_iter=int(np.sum(np.asarray(rec["iterations"]) >= 1000)),
-                             residual_max=float(np.max(rec["residual"])))
+                             residual_max=_finite_max(rec["residual"]),
+                             steps_with_nonfinite_residual=int(np.sum(~np.isfinite(
+                                 np.asarray(rec["residual"], float)))))
         out["trace_50_steps"] = _trace(rec)
     if "trace" in run:
         out["trace"] = run["trace"]
@@ -243,7 +263,8 @@ def main():
     stamp = _dt.datetime.fromisoformat(started).strftime("%Y%m%d-%H%M")
     name = f"peers-{stamp}{'-quick' if cfg.get('quick') else ''}.json"
     dest = ROOT / "bench" / "results" / name
-    dest.write_text(json.dumps(out, indent=1) + "\n")
+    out = _clean(out)
+    dest.write_text(json.dumps(out, indent=1, allow_nan=False) + "\n")
     print_table(out)
     print(f"\nwritten: {dest.relative_to(ROOT)}")
 
@@ -288,6 +309,11 @@ def print_table(out):
         print(f"Yade: {'at rest' if d['at_rest'] else 'NOT at rest, cap hit'} after "
               f"{d['iterations']} iterations ({d['simulated_time_s']:.4f} s simulated) in "
               f"{d['wall_s']:.1f} s (cap {d['cap_s']:g} s)")
+    if y.get("agreement_at_end"):
+        g = y["agreement_at_end"]
+        print(f"final states: mean height ours {g['mean_height_ours_m'] * 1e3:.4f} mm, Yade "
+              f"{g['mean_height_peer_m'] * 1e3:.4f} mm (rel {g['mean_height_rel_diff']:+.2e}); "
+              f"contacts (gap<=1% rmin) {g['contacts_geometric_ours']}/{g['contacts_geometric_peer']}")
     if y.get("ours") and not y["ours"]["at_rest"]:
         print("ratio Yade/ours to rest: none (ours did not reach rest within its cap)")
     if y.get("ratio_wall_to_rest") is not None:

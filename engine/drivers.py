@@ -23,9 +23,10 @@ def _vector(value, what: str) -> np.ndarray:
 
 
 def drive_forces(model, state) -> None:
-    """Fill ``state.force`` [N] with the force and pressure drives at the current time."""
+    """Fill ``state.force`` [N] with ``state.load`` plus the force and pressure drives at the
+    current time."""
     f = state.force
-    f[:] = 0.0
+    f[:] = state.load
     t = state.time
     for d in model.drives:
         if d.kind == "force":
@@ -44,3 +45,87 @@ def drive_velocities(model, state, t: float) -> None:
     for d in model.drives:
         if d.kind == "velocity":
             state.vel6[d.body, :3] = _vector(d.at(t), f"velocity drive on body {d.body} at t={t:g} s")
+
+
+class Confinement:
+    """A pressure on the free surface of a cylindrical sample, applied to its outer particles
+    (the paper's §3.3 procedure "which applies a confinement loading on free surface
+    particles").
+
+    The lateral surface is cut into angular sectors × height layers; in each cell the
+    particle reaching farthest from the axis (‖x − axis‖ + r) is a surface particle and gets
+    the force p · A · (−e_r), A = Δθ ρ Δz the cell's share of the lateral surface at that
+    particle's outer radius ρ.  Cells holding no particle centre (a few per cent with the
+    default cell size) hand their share to the others: the areas are scaled by
+    (number of cells) / (number of filled cells), so the total force is p × 2π R̄ H.  :meth:`apply` writes these forces into ``state.load`` (and
+    clears the previous ones); call it every few steps as the sample deforms.
+
+    Parameters
+    ----------
+    pressure : float [Pa], >= 0
+    ids : (n,) int            the particles of the sample (sand and wire beads).
+    center : (x, y) [m]       the vertical axis.
+    cell : float [m]          target size of a cell (default 1.5 × the mean diameter: a
+                              cell then holds about 3 particle centres; with 1 × it was
+                              empty a quarter of the time).
+    """
+
+    def __init__(self, pressure: float, ids, *, center=(0.0, 0.0), cell: float | None = None):
+        p = float(pressure)
+        if not (np.isfinite(p) and p >= 0):
+            raise ValueError(f"pressure must be finite and >= 0 [Pa], got {pressure!r}")
+        self.pressure = p
+        self.ids = np.asarray(ids, dtype=np.int64)
+        if self.ids.size == 0:
+            raise ValueError("ids: the confined sample has no particle")
+        self.center = np.asarray(center, dtype=float)
+        self.cell = cell
+        self.surface = np.zeros(0, np.int64)
+        self.area = self.radius = self.height = 0.0
+
+    def geometry(self, model, state):
+        """(outer radius ρ, angle θ, z bottom, z top) of the sample's particles."""
+        x = state.position[self.ids]
+        r = model.body_radius[self.ids]
+        dx, dy = x[:, 0] - self.center[0], x[:, 1] - self.center[1]
+        return np.hypot(dx, dy) + r, np.arctan2(dy, dx), (x[:, 2] - r).min(), (x[:, 2] + r).max()
+
+    def apply(self, model, state) -> float:
+        """Recompute the surface particles and their loads; returns the loaded area [m²]."""
+        rho, theta, z0, z1 = self.geometry(model, state)
+        rad = model.body_radius[self.ids]
+        cell = 3.0 * rad.mean() if self.cell is None else float(self.cell)
+        R = float(np.median(rho[rho > np.percentile(rho, 75)]))
+        n_sec = max(4, int(round(2 * np.pi * R / cell)))
+        n_lay = max(1, int(round((z1 - z0) / cell)))
+        z = state.position[self.ids, 2]
+        sec = ((theta + np.pi) / (2 * np.pi) * n_sec).astype(np.int64) % n_sec
+        lay = np.clip(((z - z0) / (z1 - z0) * n_lay).astype(np.int64), 0, n_lay - 1)
+        cell_id = sec * n_lay + lay
+        # the farthest particle of each cell
+        order = np.lexsort((rho, cell_id))
+        last = np.r_[cell_id[order][1:] != cell_id[order][:-1], True]
+        top = order[last]
+        area = (2 * np.pi / n_sec) * rho[top] * ((z1 - z0) / n_lay) * (n_sec * n_lay / top.size)
+        f = self.pressure * area
+        state.load[self.ids[self.surface]] = 0.0
+        self.surface = top
+        er = np.stack([np.cos(theta[top]), np.sin(theta[top]), np.zeros(top.size)], 1)
+        state.load[self.ids[top]] = -f[:, None] * er
+        self._force = f
+        self._er = er
+        self.area = float(area.sum())
+        self.radius = float(np.average(rho[top], weights=area))   # outer envelope [m]
+        self.height = float(z1 - z0)
+        return self.area
+
+    def membrane_stress(self, model) -> np.ndarray:
+        """Σ_surface (−r e_r) ⊗ f over the loaded particles [N·m] (tension positive once
+        divided by −V): the part of the Weber sum (Eq. 18) of the membrane "contacts",
+        whose branch goes from the particle centre to its outer edge, like a wall contact's."""
+        if self.surface.size == 0:
+            return np.zeros((3, 3))
+        r = model.body_radius[self.ids[self.surface]]
+        branch = -r[:, None] * self._er
+        force = -self._force[:, None] * self._er
+        return np.einsum("ka,kb->ab", branch, force)

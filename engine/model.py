@@ -211,6 +211,34 @@ class Model:
         """Body ids of a group."""
         return np.flatnonzero(self.body_group == self.group_id(group)).astype(np.int32)
 
+    def with_drive(self, body: int, *, velocity) -> "Model":
+        """A copy in which wall ``body`` is velocity-driven from now on: ``velocity`` (3,)
+        [m/s] or a callable of time.  Replaces a pressure or force drive (or a fixity);
+        the State stays valid.  Used to switch a test from a stress-controlled stage to a
+        strain-controlled one (e.g. a triaxial test's top wall)."""
+        from dataclasses import replace
+
+        b = int(body)
+        if not 0 <= b < self.n_bodies or self.body_kind[b] == SPHERE:
+            raise ValueError(f"body must be a wall id, got {body!r}")
+        if not callable(velocity):
+            v = np.asarray(velocity, dtype=float)
+            if v.shape != (3,) or not np.all(np.isfinite(v)):
+                raise ValueError(f"velocity must be 3 finite numbers [m/s], got {velocity!r}")
+            velocity = v
+        dof = self.body_dof.copy()
+        dof[b] = IMPOSED
+        line = self.body_line.copy()
+        line[b] = 0.0
+        dyn = self.body_dyn.copy()
+        dyn[b, 0] = dyn[b, 1] = dyn[b, 3] = 0.0
+        dyn[b, 4:7] = 0.0
+        drives = tuple(d for d in self.drives if d.body != b) + (Drive(body=b, kind="velocity",
+                                                                        value=velocity),)
+        drives = tuple(sorted(drives, key=lambda d: d.body))
+        return replace(self, body_dof=_frozen(dof), body_line=_frozen(line),
+                       body_dyn=_frozen(dyn), drives=drives)
+
     def with_options(self, **changes) -> "Model":
         """A copy with some options changed (validated), e.g. ``model.with_options(dt=1e-5)``."""
         from dataclasses import replace

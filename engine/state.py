@@ -101,7 +101,11 @@ class State:
     vel6 : (nb, 6) float64
         Translational and angular velocity packed per body (what the kernels update).
     force : (nb, 3) float64 [N]
-        External force of drives applied during the last step (gravity excluded).
+        External force applied during the last step (gravity excluded): ``load`` plus the
+        force and pressure drives.
+    load : (nb, 3) float64 [N]
+        External loads set by the user between steps (e.g. the confinement of free-surface
+        particles, :class:`engine.drivers.Confinement`); they stay until changed.
     contacts_buf : ContactBuffers
         Active contacts of the last step.
     pairs : (cap, 2) int32 ; n_pairs : int
@@ -135,6 +139,7 @@ class State:
     time: float = 0.0
     step: int = 0
     force: np.ndarray = None
+    load: np.ndarray = None
     contacts_buf: ContactBuffers = None
     pairs: np.ndarray = None
     n_pairs: int = 0
@@ -163,6 +168,8 @@ class State:
             self.link_excluded_next = -np.ones(nb, np.int32)
         if self.force is None:
             self.force = np.zeros((nb, 3))
+        if self.load is None:
+            self.load = np.zeros((nb, 3))
         if self.contacts_buf is None:
             self.contacts_buf = ContactBuffers(max(64, 4 * nb))
         if self.pairs is None:

@@ -4,7 +4,11 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
+import warnings
+
 import numpy as np
+
+from ..model import SPHERE
 
 
 @dataclass(frozen=True)
@@ -30,15 +34,18 @@ class SlopeProfile:
     max_slope_deg: float
 
 
-def slope_profile(model, state, *, floor: int, center=(0.0, 0.0), r_max: float | None = None,
+def slope_profile(model, state, *, floor, center=(0.0, 0.0), r_max: float | None = None,
                   n_bins: int = 20, n_sectors: int = 12, degree: int = 3,
                   pressure_degree: int = 3) -> SlopeProfile:
     """h(r), p(r), their regressions and the maximum slope (paper §3.1, Fig. 10).
 
     Parameters
     ----------
-    floor : int
-        Body id of the floor plane (its normal must be +z); heights are measured from it.
+    floor : int or (k,) int
+        Body id of the floor plane (its normal must be +z), or the ids of the fixed beads of
+        a rough floor (the paper's "rubber plane"): heights are then measured from the top
+        of the beads, the pressure comes from the contacts on them, and the beads are not
+        part of the heap.
     center : (x, y) [m]
         The vertical axis.
     r_max : float [m]
@@ -48,9 +55,16 @@ def slope_profile(model, state, *, floor: int, center=(0.0, 0.0), r_max: float |
     """
     if int(n_bins) < 2 or int(n_sectors) < 1:
         raise ValueError(f"n_bins must be >= 2 and n_sectors >= 1, got {n_bins}, {n_sectors}")
-    if not np.allclose(model.body_axis[floor], (0, 0, 1)):
-        raise ValueError(f"floor {floor} must be a plane with normal +z")
-    ids = model.sphere_ids
+    beads = np.atleast_1d(np.asarray(floor))
+    if beads.size == 1 and model.body_kind[int(beads[0])] != SPHERE:
+        floor = int(beads[0])
+        if not np.allclose(model.body_axis[floor], (0, 0, 1)):
+            raise ValueError(f"floor {floor} must be a plane with normal +z")
+        base = state.position[floor, 2]
+        ids = model.sphere_ids
+    else:
+        base = float((state.position[beads, 2] + model.body_radius[beads]).max())
+        ids = np.setdiff1d(model.sphere_ids, beads)
     p = state.position[ids]
     rad = model.body_radius[ids]
     dx, dy = p[:, 0] - center[0], p[:, 1] - center[1]
@@ -59,21 +73,25 @@ def slope_profile(model, state, *, floor: int, center=(0.0, 0.0), r_max: float |
     edges = np.linspace(0.0, r_max, int(n_bins) + 1)
     rb = np.clip(np.digitize(rr, edges) - 1, 0, n_bins - 1)
     sector = ((np.arctan2(dy, dx) + np.pi) / (2 * np.pi) * n_sectors).astype(int) % n_sectors
-    top = p[:, 2] + rad - state.position[floor, 2]
+    top = p[:, 2] + rad - base
     best = np.full((n_bins, n_sectors), np.nan)
     np.fmax.at(best, (rb, sector), top)
-    with np.errstate(all="ignore"):
+    with warnings.catch_warnings():               # bins no sphere reaches: NaN
+        warnings.simplefilter("ignore", RuntimeWarning)
         height = np.nanmean(best, axis=1)
     centres = 0.5 * (edges[:-1] + edges[1:])
     # floor pressure from the normal forces of the floor contacts
     pressure = np.zeros(n_bins)
     if state.last_dt:
         c = state.contacts
-        on = c.j == floor
+        on_j, on_i = np.isin(c.j, beads), np.isin(c.i, beads)
+        on = on_j ^ on_i
         if on.any():
             cr = np.hypot(c.point[on, 0] - center[0], c.point[on, 1] - center[1])
             cb = np.clip(np.digitize(cr, edges) - 1, 0, n_bins - 1)
-            np.add.at(pressure, cb, c.normal_force[on])
+            # vertical force on the floor (the contact force acts on i)
+            fz = np.where(on_j[on], -c.force[on, 2], c.force[on, 2])
+            np.add.at(pressure, cb, -fz)
     pressure /= np.pi * (edges[1:] ** 2 - edges[:-1] ** 2)
     ok = np.isfinite(height)
     if ok.sum() <= degree:

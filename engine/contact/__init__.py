@@ -19,6 +19,15 @@ def rebuild_pairs(model, state) -> None:
     """
     o = model.options
     margin = o.alert + o.skin
+    # NaN/Inf, or so far away (1e6 m) that the grid extent overflows: the run blew up
+    bad = ~(np.abs(state.position[model.sphere_ids]) < 1e6).all(axis=1)
+    if bad.any():
+        from ..step import SimulationError
+        ids = model.sphere_ids[bad]
+        raise SimulationError(
+            f"step {state.step + 1}: the predicted positions of {bad.sum()} bodies are not "
+            f"finite or beyond 1e6 m (bodies {ids[:10].tolist()}{' ...' if ids.size > 10 else ''}): the "
+            f"velocities blew up; lower dt or check the loads")
     while True:
         n = build_pairs(state.position, model.body_radius, model.body_group, model.pair_law,
                         state.link_excluded_next, model.sphere_ids, margin, state.pairs)

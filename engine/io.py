@@ -1,0 +1,871 @@
+"""HDF5 files: checkpoints (:func:`save` / :func:`load`) and run histories (:class:`History`).
+
+A **checkpoint** holds the whole :class:`~engine.model.Model` and the whole mutable
+:class:`~engine.state.State`, including what the next step reads besides positions and
+velocities: the warm-start impulses (``warm_key``, ``warm_impulse``), the wire link
+impulses (also a warm start), the Verlet candidate-pair list and its reference positions,
+the Kahan compensation of the time sum, the step counter and ``last_dt``.  A run
+restarted from a checkpoint therefore continues **bit for bit** like the uninterrupted run.
+
+A **history** (:class:`History`, a writer for :func:`engine.run`) appends per-step scalars
+and, every N steps, frames (positions, velocities, spins, link tensions, contacts) to
+resizable chunked datasets.  It stores the model once, so :func:`load` / :func:`load_model`
+also accept a history file (the state is then rebuilt from a frame, for rendering and
+analysis: it is not a restart point).  The file is written in HDF5's single-writer /
+multiple-reader mode (SWMR) and flushed every interval: a crash, SIGINT or SIGTERM loses at
+most the last interval and the file stays readable, also while the run goes on.
+
+Every dataset has a ``unit`` attribute (SI, ASCII: ``m``, ``m/s``, ``N s``, ``-`` for
+dimensionless values, codes, ids and flags).  The root carries ``format`` =
+``"nscd-workbench"``, ``format_version`` (:data:`FORMAT_VERSION`) and ``content``
+(``"checkpoint"`` or ``"history"``).  A file that is not HDF5, is truncated, belongs to
+another program, lacks a required dataset or has a newer format version raises
+:class:`FormatError` (a ``ValueError``) naming the file and the problem.
+
+The layout is described in ``docs/io.md``.
+"""
+from __future__ import annotations
+
+import dataclasses
+import json
+import os
+from dataclasses import dataclass, field
+from typing import Callable
+
+import h5py
+import numpy as np
+from numba import njit
+
+from . import laws as _laws
+from .model import SPHERE, Drive, Model, Options
+from .state import ContactBuffers, State, StepStats
+
+#: Name written in the root attribute ``format``.
+FORMAT_NAME = "nscd-workbench"
+#: Version of the layout written by this module; files with a larger one are refused.
+FORMAT_VERSION = 1
+
+
+class FormatError(ValueError):
+    """The file is not a readable nscd-workbench HDF5 file of a supported version."""
+
+
+class _BadArgument(ValueError):
+    """A bad argument of a reading function (not a problem of the file)."""
+
+
+# -- units ---------------------------------------------------------------------------------
+#: Unit of every Model array (SI, ASCII).
+MODEL_UNITS = {
+    "body_kind": "-", "body_group": "-", "body_radius": "m", "body_mass": "kg",
+    "body_inertia": "kg m^2", "body_axis": "-", "body_height": "m", "body_caps": "-",
+    "body_dof": "-", "body_line": "-",
+    "body_dyn": "columns: 1/kg, 1/(kg m^2), m, -, -, -, -, -",
+    "sphere_ids": "-", "wall_ids": "-", "pair_law": "-", "law_code": "-",
+    "law_param": "per law: Coulomb (mu -); wire (stiffness N, prestrain -, max_tension N, unilateral -)",
+    "link_i": "-", "link_j": "-", "link_law": "-", "link_ref_length": "m",
+    "link_stiffness": "N", "link_max_tension": "N", "link_unilateral": "-", "link_order": "-",
+    "body_next": "-",
+}
+#: Unit of every State dataset of a checkpoint.
+STATE_UNITS = {
+    "time": "s", "time_compensation": "s", "last_dt": "s",
+    "position": "m", "vel6": "columns: m/s, m/s, m/s, rad/s, rad/s, rad/s", "force": "N",
+    "load": "N",
+    "pairs": "-", "pairs_ref": "m", "warm_key": "-", "warm_impulse": "N s",
+    "link_i": "-", "link_j": "-", "link_impulse": "N s", "link_broken": "-",
+    "link_normal": "-", "link_gap": "m", "link_excluded_next": "-",
+}
+#: Unit of the contact buffer fields (:class:`engine.state.ContactBuffers`).
+CONTACT_UNITS = {
+    "i": "-", "j": "-", "sub": "-", "key": "-", "frame": "-", "gap": "m", "mu": "-",
+    "ri": "m", "rj": "m", "w": "columns: 1/kg, 1/kg, kg, kg", "gterm": "m/s",
+    "impulse": "N s",
+}
+_DRIVE_UNITS = {"velocity": "m/s", "force": "N", "pressure": "Pa"}
+
+#: Per-step scalars of a history: name -> (dtype, unit).
+HISTORY_SCALARS = {
+    "time": (np.float64, "s"), "step": (np.int64, "-"), "kinetic_energy": (np.float64, "J"),
+    "iterations": (np.int32, "-"), "residual": (np.float64, "-"), "converged": (np.int8, "-"),
+    "n_contacts": (np.int32, "-"), "n_links": (np.int32, "-"),
+}
+
+
+#: HDF5 file-format bounds: v1.10 objects carry metadata checksums and allow SWMR; files
+#: stay readable by HDF5 >= 1.10.
+LIBVER = ("v110", "v114")
+
+
+def _dataset(group, name: str, data, unit: str, **kw):
+    if np.ndim(data) > 0:  # a checksum per chunk: flipped bits give an error, not numbers
+        kw.setdefault("fletcher32", True)
+    d = group.create_dataset(name, data=data, **kw)
+    d.attrs["unit"] = unit
+    return d
+
+
+def _appendable(group, name: str, tail: tuple, dtype, unit: str, rows: int):
+    """An empty dataset of shape (0, *tail) that grows along axis 0 in chunks of ``rows``."""
+    maxshape = (None,) + tuple(None if t == 0 else t for t in tail)
+    chunks = (rows,) + tuple(max(t, 1) for t in tail)
+    # no checksum filter: a chunk being rewritten when the writer is killed would then fail
+    # its checksum and hide the records flushed before it
+    return _dataset(group, name, np.zeros((0,) + tuple(tail), dtype), unit, maxshape=maxshape,
+                    chunks=chunks, fletcher32=False)
+
+
+def _root_attrs(f, content: str) -> None:
+    from . import __version__
+
+    f.attrs["format"] = FORMAT_NAME
+    f.attrs["format_version"] = FORMAT_VERSION
+    f.attrs["content"] = content
+    f.attrs["engine_version"] = __version__
+    f.attrs["units"] = "SI"
+
+
+# -- model -------------------------------------------------------------------------------------
+def _callable_name(fn) -> str:
+    mod = getattr(fn, "__module__", None) or "?"
+    return f"{mod}.{getattr(fn, '__qualname__', type(fn).__name__)}"
+
+
+class UnsavedCallable:
+    """Stands for a drive's Python callable that a history file could not store.
+
+    Rendering and analysis work; stepping raises a ``ValueError`` saying what to supply
+    (``load(path, callables={(body, "value" or "area"): fn})``).
+    """
+
+    def __init__(self, body: int, kind: str, what: str, name: str):
+        self.body, self.kind, self.what, self.name = body, kind, what, name
+
+    def __call__(self, *args, **kwargs):
+        raise ValueError(f"the {self.what} of the {self.kind} drive on body {self.body} was the "
+                         f"Python callable {self.name}, which a file cannot hold; pass it to "
+                         f"engine.io.load(path, callables={{({self.body}, {self.what!r}): fn}})")
+
+    def __repr__(self) -> str:
+        return f"UnsavedCallable({self.name})"
+
+
+def _write_model(g, model: Model, strict: bool) -> None:
+    """Write ``model`` into group ``g``; ``strict``: a callable drive raises ValueError."""
+    for f in dataclasses.fields(Model):
+        v = getattr(model, f.name)
+        if isinstance(v, np.ndarray):
+            _dataset(g, f.name, v, MODEL_UNITS.get(f.name, "unspecified"))
+    g.attrs["group_names"] = json.dumps(list(model.group_names))
+    g.attrs["options"] = json.dumps(model.options.model_dump())
+    g.attrs["laws"] = json.dumps([{"type": type(l).__name__, "params": l.model_dump()}
+                                  for l in model.laws])
+    dg = g.create_group("drives")
+    dg.attrs["count"] = len(model.drives)
+    for k, d in enumerate(model.drives):
+        sub = dg.create_group(str(k))
+        sub.attrs["body"] = int(d.body)
+        sub.attrs["kind"] = d.kind
+        for what, v, unit in (("value", d.value, _DRIVE_UNITS[d.kind]), ("area", d.area, "m^2")):
+            if v is None:
+                continue
+            if callable(v):
+                if strict:
+                    raise ValueError(
+                        f"{d.kind} drive on body {d.body}: {what} is a Python callable "
+                        f"({_callable_name(v)}), which cannot be serialised in a checkpoint; "
+                        f"give a constant {what} [{unit}] to save")
+                sub.attrs[f"{what}_callable"] = _callable_name(v)
+                continue
+            _dataset(sub, what, np.asarray(v, dtype=float), unit)
+            sub.attrs[f"{what}_scalar"] = bool(np.ndim(v) == 0)
+
+
+def _read_model(g, callables=None) -> Model:
+    callables = dict(callables or {})
+    kw = {}
+    for f in dataclasses.fields(Model):
+        if f.name in ("group_names", "options", "laws", "drives"):
+            continue
+        if f.name not in g:
+            raise KeyError(f"model/{f.name}")
+        kw[f.name] = np.ascontiguousarray(g[f.name][()])
+    kw["group_names"] = tuple(json.loads(g.attrs["group_names"]))
+    kw["options"] = Options(**json.loads(g.attrs["options"]))
+    law_list = []
+    for entry in json.loads(g.attrs["laws"]):
+        cls = getattr(_laws, entry["type"], None)
+        if not (isinstance(cls, type) and issubclass(cls, _laws.Law)):
+            raise FormatError(f"unknown law type {entry['type']!r} in model/laws")
+        law_list.append(cls(**entry["params"]))
+    kw["laws"] = tuple(law_list)
+    dg = g["drives"]
+    drives = []
+    for k in range(int(dg.attrs["count"])):
+        sub = dg[str(k)]
+        body, kind = int(sub.attrs["body"]), str(sub.attrs["kind"])
+        vals = {}
+        for what in ("value", "area"):
+            if what in sub:
+                a = sub[what][()]
+                vals[what] = float(a) if sub.attrs[f"{what}_scalar"] else np.asarray(a, float)
+            elif f"{what}_callable" in sub.attrs:
+                vals[what] = callables.pop((body, what), None) or UnsavedCallable(
+                    body, kind, what, str(sub.attrs[f"{what}_callable"]))
+            else:
+                vals[what] = None
+        drives.append(Drive(body=body, kind=kind, value=vals["value"], area=vals["area"]))
+    if callables:
+        raise _BadArgument(f"callables: no saved drive callable matches the keys {sorted(callables)}")
+    kw["drives"] = tuple(drives)
+    model = Model(**kw)
+    _check_model(model)
+    return model
+
+
+def _check_model(m: Model) -> None:
+    nb, nl = m.n_bodies, m.n_links
+    for f in dataclasses.fields(Model):
+        v = getattr(m, f.name)
+        if isinstance(v, np.ndarray) and f.name.startswith("body_") and v.shape[:1] != (nb,):
+            raise FormatError(f"model/{f.name} has shape {v.shape}, expected ({nb}, ...)")
+        if isinstance(v, np.ndarray) and f.name.startswith("link_") and v.shape[:1] != (nl,):
+            raise FormatError(f"model/{f.name} has shape {v.shape}, expected ({nl},)")
+    ng = len(m.group_names)
+    if m.pair_law.shape != (ng, ng):
+        raise FormatError(f"model/pair_law has shape {m.pair_law.shape}, expected ({ng}, {ng})")
+
+
+# -- state -------------------------------------------------------------------------------------
+#: State fields written by hand (the rest is generic: arrays, then plain numbers).
+_STATE_SPECIAL = ("pairs", "pairs_ref", "n_pairs", "contacts_buf", "stats", "time", "step",
+                  "last_dt", "time_compensation")
+
+
+def _write_state(g, state: State) -> None:
+    arrays, numbers = [], {}
+    for f in dataclasses.fields(State):
+        v = getattr(state, f.name)
+        if f.name in _STATE_SPECIAL:
+            continue
+        if isinstance(v, np.ndarray):
+            _dataset(g, f.name, v, STATE_UNITS.get(f.name, "unspecified"))
+            arrays.append(f.name)
+        elif isinstance(v, (bool, int, float, np.number)):
+            numbers[f.name] = v.item() if isinstance(v, np.number) else v
+        else:
+            raise ValueError(f"state.{f.name}: engine.io does not know how to save a "
+                             f"{type(v).__name__}")
+    g.attrs["arrays"] = json.dumps(arrays)
+    g.attrs["numbers"] = json.dumps(numbers)
+    for name in ("time", "time_compensation", "last_dt"):
+        _dataset(g, name, np.float64(getattr(state, name)), STATE_UNITS[name])
+    g.attrs["step"] = int(state.step)
+    # Verlet list: the next step reuses it unless a body moved more than skin/2, and the
+    # order of its pairs sets the order of the contacts in the NLGS sweep
+    g.attrs["n_pairs"] = int(state.n_pairs)
+    g.attrs["pairs_cap"] = int(state.pairs.shape[0])
+    _dataset(g, "pairs", state.pairs[:state.n_pairs], STATE_UNITS["pairs"])
+    g.attrs["has_pairs_ref"] = state.pairs_ref is not None
+    if state.pairs_ref is not None:
+        _dataset(g, "pairs_ref", state.pairs_ref, STATE_UNITS["pairs_ref"])
+    # contacts of the last step (what state.contacts shows; the next step recomputes them)
+    c = state.contacts_buf
+    cg = g.create_group("contacts")
+    cg.attrs["cap"], cg.attrs["count"], cg.attrs["n_pair"] = int(c.cap), int(c.count), int(c.n_pair)
+    for name in ContactBuffers._FIELDS:
+        _dataset(cg, name, getattr(c, name)[:c.count], CONTACT_UNITS[name])
+    g.attrs["stats"] = json.dumps(dataclasses.asdict(state.stats))
+
+
+def _read_state(g, model: Model) -> State:
+    known = {f.name for f in dataclasses.fields(State)}
+    kw = {name: np.ascontiguousarray(g[name][()]) for name in json.loads(g.attrs["arrays"])}
+    kw.update(json.loads(g.attrs["numbers"]))
+    unknown = sorted(set(kw) - known)
+    if unknown:  # dropping them could change the next step: refuse
+        raise FormatError(f"state fields {unknown} are unknown to this engine (a file from a "
+                          f"newer nscd-workbench?)")
+    for name in ("position", "vel6"):
+        if name not in kw:
+            raise KeyError(f"state/{name}")
+    state = State(**kw, time=float(g["time"][()]), step=int(g.attrs["step"]),
+                  last_dt=float(g["last_dt"][()]),
+                  time_compensation=float(g["time_compensation"][()]))
+    n = int(g.attrs["n_pairs"])
+    state.pairs = np.zeros((max(int(g.attrs["pairs_cap"]), n), 2), np.int32)
+    state.pairs[:n] = g["pairs"][()]
+    state.n_pairs = n
+    state.pairs_ref = (np.ascontiguousarray(g["pairs_ref"][()])
+                       if bool(g.attrs["has_pairs_ref"]) else None)
+    cg = g["contacts"]
+    k = int(cg.attrs["count"])
+    c = ContactBuffers(max(int(cg.attrs["cap"]), k))
+    for name in ContactBuffers._FIELDS:
+        getattr(c, name)[:k] = cg[name][()]
+    c.count, c.n_pair = k, int(cg.attrs["n_pair"])
+    state.contacts_buf = c
+    state.stats = StepStats(**json.loads(g.attrs["stats"]))
+    _check_state(model, state)
+    return state
+
+
+def _check_state(model: Model, s: State) -> None:
+    nb, nl = model.n_bodies, model.n_links
+    want = {"position": (nb, 3), "vel6": (nb, 6), "force": (nb, 3), "link_impulse": (nl,),
+            "link_broken": (nl,), "link_normal": (nl, 3), "link_gap": (nl,),
+            "link_excluded_next": (nb,), "link_i": (nl,), "link_j": (nl,)}
+    for name, shape in want.items():
+        if getattr(s, name).shape != shape:
+            raise FormatError(f"state/{name} has shape {getattr(s, name).shape}, expected {shape}")
+    if s.warm_impulse.shape != (s.warm_key.shape[0], 3):
+        raise FormatError("state/warm_impulse does not match state/warm_key")
+    if s.pairs_ref is not None and s.pairs_ref.shape != (nb, 3):
+        raise FormatError(f"state/pairs_ref has shape {s.pairs_ref.shape}, expected ({nb}, 3)")
+
+
+# -- opening -----------------------------------------------------------------------------------
+def _open_read(path) -> h5py.File:
+    """Open an existing file for reading (SWMR read if a writer has it open or crashed)."""
+    path = os.fspath(path)
+    if not os.path.exists(path):
+        raise FileNotFoundError(f"no such file: {path!r}")
+    try:
+        return h5py.File(path, "r")
+    except OSError as e:
+        first = e
+    if "already open for write" in str(first):
+        # a history still being written, or whose writer was killed: SWMR read mode
+        # (only then: SWMR skips the end-of-file check, and a truncated file can hang HDF5)
+        try:
+            return h5py.File(path, "r", swmr=True)
+        except OSError:
+            pass
+    raise FormatError(f"{path}: not a readable HDF5 file (corrupt or truncated?): {first}")
+
+
+def _check_root(f, path, content: str | None = None) -> str:
+    fmt = f.attrs.get("format")
+    if isinstance(fmt, bytes):
+        fmt = fmt.decode()
+    if fmt != FORMAT_NAME:
+        raise FormatError(f"{path}: not an {FORMAT_NAME} file (root attribute 'format' is "
+                          f"{fmt!r}, expected {FORMAT_NAME!r})")
+    try:
+        version = int(f.attrs["format_version"])
+    except (KeyError, TypeError, ValueError):
+        raise FormatError(f"{path}: missing or bad 'format_version' attribute") from None
+    if version > FORMAT_VERSION:
+        raise FormatError(f"{path}: format version {version} is newer than this engine reads "
+                          f"(<= {FORMAT_VERSION}); upgrade nscd-workbench")
+    if version < 1:
+        raise FormatError(f"{path}: bad format version {version}")
+    kind = str(f.attrs.get("content", ""))
+    if kind not in ("checkpoint", "history"):
+        raise FormatError(f"{path}: unknown content {kind!r} (expected 'checkpoint' or 'history')")
+    if content is not None and kind != content:
+        raise FormatError(f"{path}: is a {kind} file, expected a {content}")
+    return kind
+
+
+def _reading(path, fn):
+    """Run ``fn(file)`` on an open file; HDF5 and layout errors become FormatError."""
+    f = _open_read(path)
+    try:
+        return fn(f)
+    except _BadArgument:
+        raise
+    except FormatError as e:
+        if os.fspath(path) in str(e):
+            raise
+        raise FormatError(f"{os.fspath(path)}: {e}") from None
+    except (KeyError, OSError, TypeError, json.JSONDecodeError, AttributeError) as e:
+        raise FormatError(f"{os.fspath(path)}: corrupt or incomplete file ({type(e).__name__}: "
+                          f"{e})") from None
+    except ValueError as e:  # pydantic validation of options/laws, bad shapes
+        raise FormatError(f"{os.fspath(path)}: corrupt or incomplete file ({e})") from None
+    finally:
+        f.close()
+
+
+# -- checkpoint API ----------------------------------------------------------------------------
+def save(path, model: Model, state: State) -> None:
+    """Write a checkpoint of ``(model, state)`` to ``path`` (HDF5; replaced atomically).
+
+    Everything the next step reads is stored, so ``load`` then ``run`` continues bit for
+    bit like the uninterrupted run.
+
+    Raises
+    ------
+    ValueError
+        ``model``/``state`` of the wrong type or size, or a drive whose value or area is a
+        Python callable (it cannot be serialised; the drive is named).
+    """
+    if not isinstance(model, Model):
+        raise ValueError(f"model must be an engine Model, got {type(model).__name__}")
+    if not isinstance(state, State):
+        raise ValueError(f"state must be an engine State, got {type(state).__name__}")
+    if state.position.shape != (model.n_bodies, 3):
+        raise ValueError(f"state.position has shape {state.position.shape}, but the model has "
+                         f"{model.n_bodies} bodies")
+    path = os.fspath(path)
+    tmp = f"{path}.tmp{os.getpid()}"
+    try:
+        with h5py.File(tmp, "w", libver=LIBVER) as f:
+            _root_attrs(f, "checkpoint")
+            _write_model(f.create_group("model"), model, strict=True)
+            _write_state(f.create_group("state"), state)
+        os.replace(tmp, path)  # a crash during save never spoils an older checkpoint
+    finally:
+        if os.path.exists(tmp):
+            os.remove(tmp)
+
+
+def load(path, frame: int = -1, callables: dict | None = None) -> tuple[Model, State]:
+    """Read ``(model, state)`` from a checkpoint, or from a history file.
+
+    Parameters
+    ----------
+    path : str or path
+    frame : int
+        History files only: the frame whose state is rebuilt (default the last).  That
+        state has positions, velocities, spins, time, step, link impulses and contacts
+        (for rendering and analysis) but no warm start: it is not a bit-identical restart
+        point.
+    callables : dict, optional
+        History files only: ``{(body, "value" | "area"): fn}`` re-supplying drive callables
+        the file could not hold.
+
+    Raises
+    ------
+    FileNotFoundError
+    FormatError (a ValueError)
+        Not HDF5, truncated, foreign, newer format version, or a missing/bad dataset.
+    """
+    def read(f):
+        kind = _check_root(f, path)
+        model = _read_model(f["model"], callables)
+        if kind == "checkpoint":
+            return model, _read_state(f["state"], model)
+        return model, _state_from_frame(f, model, frame)
+
+    return _reading(path, read)
+
+
+def load_model(path, callables: dict | None = None) -> Model:
+    """The model of a checkpoint or history file (see :func:`load`)."""
+    def read(f):
+        _check_root(f, path)
+        return _read_model(f["model"], callables)
+
+    return _reading(path, read)
+
+
+class Checkpoint:
+    """A writer for :func:`engine.run` saving a checkpoint when ``trigger(step)`` fires.
+
+    ``path`` may contain ``{step}`` (e.g. ``"ckpt_{step:07d}.h5"``); otherwise the file is
+    replaced each time (atomically).
+    """
+
+    def __init__(self, path, trigger: Callable[[int], bool] | int = 1000):
+        from .step import every
+
+        self.path = os.fspath(path)
+        self.trigger = every(trigger) if isinstance(trigger, (int, np.integer)) else trigger
+
+    def write(self, model, state) -> None:
+        save(self.path.format(step=state.step), model, state)
+
+
+# -- history -----------------------------------------------------------------------------------
+@njit(cache=True)
+def _kinetic_energy(vel6, mass, inertia, ids):
+    e = 0.0
+    for b in ids:
+        v = vel6[b]
+        e += 0.5 * (mass[b] * (v[0] * v[0] + v[1] * v[1] + v[2] * v[2])
+                    + inertia[b] * (v[3] * v[3] + v[4] * v[4] + v[5] * v[5]))
+    return e
+
+
+def kinetic_energy(model: Model, state: State) -> float:
+    """Kinetic energy of the spheres, Σ ½ m v² + ½ I ω² [J] (walls excluded)."""
+    return float(_kinetic_energy(state.vel6, model.body_mass, model.body_inertia,
+                                 model.sphere_ids))
+
+
+def wall_forces(model: Model, state: State) -> np.ndarray:
+    """Total contact force on each wall over the last step, (nw, 3) [N], ``model.wall_ids``
+    order (the opposite of the impulses on the spheres, divided by the step length)."""
+    c = state.contacts_buf
+    out = np.zeros((model.n_walls, 3))
+    if not state.last_dt or c.count == c.n_pair:
+        return out
+    a = slice(c.n_pair, c.count)  # sphere–wall contacts come after the sphere–sphere ones
+    fr, p = c.frame[a], c.impulse[a]
+    glob = p[:, 0:1] * fr[:, 0:3] + p[:, 1:2] * fr[:, 3:6] + p[:, 2:3] * fr[:, 6:9]
+    slot = np.full(model.n_bodies, -1, np.int64)
+    slot[model.wall_ids] = np.arange(model.n_walls)
+    np.add.at(out, slot[c.j[a]], -glob / state.last_dt)
+    return out
+
+
+_FRAME_BODY = {"position": ("m", 3), "velocity": ("m/s", 3), "spin": ("rad/s", 3)}
+_FRAME_CONTACT = {"i": (np.int32, (), "-"), "j": (np.int32, (), "-"), "sub": (np.int8, (), "-"),
+                  "normal": (np.float64, (3,), "-"), "gap": (np.float64, (), "m"),
+                  "force": (np.float64, (3,), "N")}
+
+
+class History:
+    """Writer for :func:`engine.run`: per-step scalars and periodic frames in an HDF5 file.
+
+    Parameters
+    ----------
+    path : str or path
+        File to create (replaced if it exists).
+    trigger : int or callable ``step -> bool``
+        When a scalar record is taken (default: every step).
+    frames : int >= 0
+        A frame every ``frames`` steps (on multiples of it); 0 = no frames.
+    flush : int >= 1, optional
+        Interval [steps] at which buffered records are written and the file flushed
+        (default: ``frames`` if > 0, else 100).  A crash loses at most this many steps.
+    extra : dict, optional
+        ``{name: fn}`` or ``{name: (fn, unit)}``: ``fn(model, state)`` returns a scalar or
+        an array of fixed shape (e.g. a stress tensor) recorded with the scalars.
+
+    Records (one per trigger): ``time`` [s], ``step``, ``kinetic_energy`` [J] (spheres),
+    ``iterations``, ``residual``, ``converged``, ``n_contacts``, ``n_links`` (links carrying
+    a non-zero impulse), ``wall_force`` (nw, 3) [N] (force on each wall, ``wall_ids``
+    order), and the extras.  Frames: ``position``, ``velocity``, ``spin`` (nb, 3),
+    ``link_tension`` (nl,) [N] (> 0 in tension), ``link_broken`` and the contacts (i, j,
+    sub, normal, gap, force [N] on i, global frame).
+
+    Use it as a context manager, or call :meth:`close`::
+
+        with History("run.h5", frames=100) as h:
+            run(model, state, 10_000, writers=[h])
+        data = read_history("run.h5")
+    """
+
+    def __init__(self, path, *, trigger: Callable[[int], bool] | int = 1, frames: int = 100,
+                 flush: int | None = None, extra: dict | None = None):
+        from .step import every
+
+        self.path = os.fspath(path)
+        self._trigger = every(trigger) if isinstance(trigger, (int, np.integer)) else trigger
+        if not callable(self._trigger):
+            raise ValueError(f"trigger must be an int >= 1 or a callable step -> bool, got {trigger!r}")
+        if not isinstance(frames, (int, np.integer)) or frames < 0:
+            raise ValueError(f"frames must be an integer >= 0 (0 = no frames), got {frames!r}")
+        self.frames = int(frames)
+        flush = (self.frames or 100) if flush is None else flush
+        if not isinstance(flush, (int, np.integer)) or flush < 1:
+            raise ValueError(f"flush must be an integer >= 1 [steps], got {flush!r}")
+        self.flush_every = int(flush)
+        self.extra = {}
+        for name, spec in (extra or {}).items():
+            fn, unit = spec if isinstance(spec, tuple) else (spec, "unspecified")
+            if not isinstance(name, str) or not name or "/" in name or name in HISTORY_SCALARS:
+                raise ValueError(f"extra: bad record name {name!r} (non-empty, no '/', not a "
+                                 f"built-in record)")
+            if not callable(fn):
+                raise ValueError(f"extra[{name!r}] must be a callable (model, state) -> value")
+            self.extra[name] = (fn, str(unit))
+        self._file = h5py.File(self.path, "w", libver=LIBVER)
+        _root_attrs(self._file, "history")
+        self._ready = False
+        self._buf: dict[str, list] = {}
+        self._last_flush = None
+        self._step_seen = None
+        self.n_records = 0
+        self.n_frames = 0
+
+    # writer protocol ------------------------------------------------------------------------
+    def trigger(self, step: int) -> bool:
+        return bool(self._trigger(step)) or (self.frames > 0 and step % self.frames == 0)
+
+    def write(self, model, state) -> None:
+        """Record the state after a complete step (called by :func:`engine.run`)."""
+        if self._file is None:
+            raise ValueError(f"History({self.path!r}) is closed")
+        if not self._ready:
+            self._setup(model, state)
+        self._step_seen = state.step
+        if self._last_flush is None:
+            self._last_flush = state.step
+        if self._trigger(state.step):
+            self._record(model, state)
+        if self.frames and state.step % self.frames == 0:
+            self._frame(model, state)
+            self.flush()
+        elif state.step - self._last_flush >= self.flush_every:
+            self.flush()
+
+    def flush(self) -> None:
+        """Append the buffered records and flush the file to disk."""
+        if self._file is None:
+            return
+        if self._ready and self._buf["time"]:
+            g = self._file["records"]
+            n0 = self.n_records
+            k = len(self._buf["time"])
+            for name, rows in self._buf.items():
+                d = g[name]
+                d.resize(n0 + k, axis=0)
+                d[n0:] = np.asarray(rows, dtype=d.dtype).reshape((k,) + d.shape[1:])
+                rows.clear()
+            self.n_records = n0 + k
+        if self._ready:
+            self._last_flush = self._step_seen
+        self._file.flush()
+
+    def close(self) -> None:
+        """Flush and close the file (idempotent)."""
+        if self._file is not None:
+            self.flush()
+            self._file.close()
+            self._file = None
+
+    def __enter__(self) -> "History":
+        return self
+
+    def __exit__(self, *exc) -> None:
+        self.close()
+
+    # internals ----------------------------------------------------------------------------
+    def _setup(self, model, state) -> None:
+        f = self._file
+        first = {}  # evaluate the extras before writing anything: a failing one leaves no trace
+        for name, (fn, unit) in self.extra.items():
+            v = np.asarray(fn(model, state))
+            if v.dtype.kind not in "biuf":
+                raise ValueError(f"extra[{name!r}] must return numbers, got {v.dtype}")
+            first[name] = v
+        self._extra_shape = {name: v.shape for name, v in first.items()}
+        _write_model(f.create_group("model"), model, strict=False)
+        g = f.create_group("records")
+        rows = max(1, min(1024, self.flush_every))
+        for name, (dtype, unit) in HISTORY_SCALARS.items():
+            _appendable(g, name, (), dtype, unit, rows)
+        nw, nb, nl = model.n_walls, model.n_bodies, model.n_links
+        _appendable(g, "wall_force", (nw, 3), np.float64, "N", rows)
+        _dataset(g, "wall_ids", model.wall_ids, "-")
+        self._buf = {name: [] for name in HISTORY_SCALARS}
+        self._buf["wall_force"] = []
+        for name, (fn, unit) in self.extra.items():
+            _appendable(g, name, first[name].shape, first[name].dtype, unit, rows)
+            self._buf[name] = []
+        g.attrs["extra"] = json.dumps(list(self.extra))
+        fg = f.create_group("frames")
+        fg.attrs["every"] = self.frames
+        _appendable(fg, "step", (), np.int64, "-", 64)
+        _appendable(fg, "time", (), np.float64, "s", 64)
+        for name, (unit, w) in _FRAME_BODY.items():
+            _appendable(fg, name, (nb, w), np.float64, unit, 1)
+        _appendable(fg, "link_tension", (nl,), np.float64, "N", 1)
+        _appendable(fg, "link_broken", (nl,), bool, "-", 1)
+        _appendable(fg, "contact_start", (), np.int64, "-", 64)
+        _appendable(fg, "contact_count", (), np.int64, "-", 64)
+        cg = fg.create_group("contacts")
+        for name, (dtype, tail, unit) in _FRAME_CONTACT.items():
+            _appendable(cg, name, tail, dtype, unit, 4096)
+        f.swmr_mode = True  # readers may follow the run; a crash leaves a readable file
+        self._ready = True
+
+    def _record(self, model, state) -> None:
+        st = state.stats
+        row = {"time": state.time, "step": state.step,
+               "kinetic_energy": kinetic_energy(model, state), "iterations": st.iterations,
+               "residual": st.residual, "converged": st.converged, "n_contacts": st.n_contacts,
+               "n_links": int(np.count_nonzero(state.link_impulse)),
+               "wall_force": wall_forces(model, state)}
+        for name, (fn, _) in self.extra.items():
+            v = np.asarray(fn(model, state))
+            want = self._extra_shape[name]
+            if v.shape != want:
+                raise ValueError(f"extra[{name!r}] returned shape {v.shape}, expected {want} "
+                                 f"(as at the first record)")
+            row[name] = v
+        for name, v in row.items():  # all or nothing: the columns stay the same length
+            self._buf[name].append(v)
+
+    def _frame(self, model, state) -> None:
+        fg = self._file["frames"]
+        c = state.contacts
+        k = len(c)
+        force = c.force if k and state.last_dt else np.zeros((k, 3))
+        cg = fg["contacts"]
+        n0 = cg["i"].shape[0]
+        for name, v in (("i", c.i), ("j", c.j), ("sub", c.sub), ("normal", c.normal),
+                        ("gap", c.gap), ("force", force)):
+            d = cg[name]
+            d.resize(n0 + k, axis=0)
+            d[n0:] = v
+        m = self.n_frames
+        links = state.links
+        for name, v in (("position", state.position), ("velocity", state.velocity),
+                        ("spin", state.spin), ("link_tension", links.tension),
+                        ("link_broken", links.broken), ("time", state.time),
+                        ("step", state.step), ("contact_count", k), ("contact_start", n0)):
+            d = fg[name]
+            d.resize(m + 1, axis=0)
+            d[m] = v
+        self.n_frames = m + 1
+
+
+@dataclass
+class HistoryData:
+    """Arrays of a history file (:func:`read_history`); n records, f frames, nw walls.
+
+    Records: ``time`` (n,) [s], ``step`` (n,), ``kinetic_energy`` (n,) [J], ``iterations``,
+    ``residual``, ``converged`` (bool), ``n_contacts``, ``n_links`` (n,), ``wall_force``
+    (n, nw, 3) [N] for the walls ``wall_ids``, ``extra`` {name: (n, ...)}.
+    Frames: ``frame_step``, ``frame_time`` (f,) [s], ``position``, ``velocity``, ``spin``
+    (f, nb, 3) [m, m/s, rad/s], ``link_tension`` (f, nl) [N], ``link_broken`` (f, nl);
+    contacts of frame k: :meth:`contacts`.
+    ``units``: the ``unit`` attribute of every array read.
+    """
+
+    time: np.ndarray
+    step: np.ndarray
+    kinetic_energy: np.ndarray
+    iterations: np.ndarray
+    residual: np.ndarray
+    converged: np.ndarray
+    n_contacts: np.ndarray
+    n_links: np.ndarray
+    wall_force: np.ndarray
+    wall_ids: np.ndarray
+    extra: dict = field(default_factory=dict)
+    frame_step: np.ndarray = None
+    frame_time: np.ndarray = None
+    position: np.ndarray = None
+    velocity: np.ndarray = None
+    spin: np.ndarray = None
+    link_tension: np.ndarray = None
+    link_broken: np.ndarray = None
+    contact_start: np.ndarray = None
+    contact_count: np.ndarray = None
+    contact_arrays: dict = field(default_factory=dict)
+    units: dict = field(default_factory=dict)
+
+    @property
+    def n_records(self) -> int:
+        return int(self.time.shape[0])
+
+    @property
+    def n_frames(self) -> int:
+        return 0 if self.frame_step is None else int(self.frame_step.shape[0])
+
+    def contacts(self, k: int) -> dict:
+        """Contacts of frame ``k``: ``{"i", "j", "sub", "normal", "gap", "force"}`` arrays."""
+        k = range(self.n_frames)[k]
+        a = int(self.contact_start[k])
+        b = a + int(self.contact_count[k])
+        return {name: v[a:b] for name, v in self.contact_arrays.items()}
+
+
+def _frame_count(fg) -> int:
+    """Frames fully written: every frame dataset has the row and its contacts exist."""
+    names = ["step", "time", "contact_start", "contact_count", *_FRAME_BODY, "link_tension",
+             "link_broken"]
+    n = min(fg[name].shape[0] for name in names)
+    nc = min(fg["contacts"][name].shape[0] for name in _FRAME_CONTACT)
+    start, count = fg["contact_start"][:n], fg["contact_count"][:n]
+    while n and start[n - 1] + count[n - 1] > nc:
+        n -= 1
+    return n
+
+
+def read_history(path, frames: bool = True) -> HistoryData:
+    """Read a history file written by :class:`History` (also while it is being written or
+    after its writer was killed: the incomplete tail is dropped).
+
+    ``frames=False`` skips the frame arrays (positions, contacts...), which can be large.
+
+    Raises FileNotFoundError, or :class:`FormatError` for a file that is not a history.
+    """
+    def read(f):
+        _check_root(f, path, "history")
+        if "records" not in f:  # created, but killed before the first record
+            raise FormatError("the history holds no record yet")
+        g = f["records"]
+        extra = json.loads(g.attrs["extra"])
+        names = [*HISTORY_SCALARS, "wall_force", *extra]
+        n = min(g[name].shape[0] for name in names)
+        units = {name: str(g[name].attrs["unit"]) for name in names}
+        rec = {name: g[name][:n] for name in names}
+        data = HistoryData(**{name: rec[name] for name in HISTORY_SCALARS},
+                           wall_force=rec["wall_force"], wall_ids=g["wall_ids"][()],
+                           extra={name: rec[name] for name in extra}, units=units)
+        data.converged = data.converged.astype(bool)
+        if frames:
+            fg = f["frames"]
+            m = _frame_count(fg)
+            data.frame_step, data.frame_time = fg["step"][:m], fg["time"][:m]
+            data.position, data.velocity = fg["position"][:m], fg["velocity"][:m]
+            data.spin = fg["spin"][:m]
+            data.link_tension, data.link_broken = fg["link_tension"][:m], fg["link_broken"][:m]
+            data.contact_start, data.contact_count = fg["contact_start"][:m], fg["contact_count"][:m]
+            nc = int(data.contact_start[-1] + data.contact_count[-1]) if m else 0
+            data.contact_arrays = {name: fg["contacts"][name][:nc] for name in _FRAME_CONTACT}
+            for name in ("position", "velocity", "spin", "link_tension"):
+                units[name] = str(fg[name].attrs["unit"])
+            units["frame_time"] = "s"
+            units.update({f"contact_{name}": u for name, (_, _, u) in _FRAME_CONTACT.items()})
+        return data
+
+    return _reading(path, read)
+
+
+def _state_from_frame(f, model: Model, frame: int) -> State:
+    """A State rebuilt from a history frame (no warm start: not a restart point)."""
+    from .contact import tangent_frame
+
+    if "frames" not in f:
+        raise FormatError("the history holds no frame")
+    fg = f["frames"]
+    m = _frame_count(fg)
+    if m == 0:
+        raise FormatError("the history holds no frame")
+    try:
+        k = range(m)[frame]
+    except (IndexError, TypeError):
+        raise _BadArgument(f"frame must be an integer in [{-m}, {m - 1}], got {frame!r}") from None
+    nb = model.n_bodies
+    vel6 = np.zeros((nb, 6))
+    vel6[:, :3], vel6[:, 3:] = fg["velocity"][k], fg["spin"][k]
+    h = model.options.dt
+    state = State(position=np.ascontiguousarray(fg["position"][k]), vel6=vel6,
+                  time=float(fg["time"][k]), step=int(fg["step"][k]), last_dt=h,
+                  link_i=model.link_i.copy(), link_j=model.link_j.copy(),
+                  link_impulse=fg["link_tension"][k] * h, link_broken=fg["link_broken"][k],
+                  link_normal=np.zeros((model.n_links, 3)), link_gap=np.zeros(model.n_links))
+    state.link_excluded_next = model.body_next.copy()
+    state.link_excluded_next[model.link_i[state.link_broken]] = -1
+    a, n = int(fg["contact_start"][k]), int(fg["contact_count"][k])
+    cg = fg["contacts"]
+    get = {name: cg[name][a:a + n] for name in _FRAME_CONTACT}
+    c = ContactBuffers(max(64, n))
+    c.i[:n], c.j[:n], c.sub[:n], c.gap[:n] = get["i"], get["j"], get["sub"], get["gap"]
+    for q in range(n):
+        nrm = get["normal"][q]
+        t = tangent_frame(nrm[0], nrm[1], nrm[2])
+        c.frame[q] = (*nrm, *t)
+    c.ri[:n] = model.body_radius[c.i[:n]]
+    sph = model.body_kind[c.j[:n]] == SPHERE
+    c.rj[:n] = np.where(sph, model.body_radius[c.j[:n]], 0.0)
+    fr = c.frame[:n]
+    p = get["force"] * h
+    c.impulse[:n] = np.stack([(p * fr[:, 0:3]).sum(1), (p * fr[:, 3:6]).sum(1),
+                              (p * fr[:, 6:9]).sum(1)], axis=1) if n else np.zeros((0, 3))
+    c.count, c.n_pair = n, int(sph.sum())
+    state.contacts_buf = c
+    return state
+
+
+__all__ = ["save", "load", "load_model", "History", "HistoryData", "read_history", "Checkpoint",
+           "FormatError", "UnsavedCallable", "kinetic_energy", "wall_forces", "FORMAT_VERSION",
+           "FORMAT_NAME"]

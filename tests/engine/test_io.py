@@ -1,0 +1,394 @@
+"""engine.io: bit-identical restart from a checkpoint, the history writer (records, frames,
+crash safety under SIGINT/SIGTERM/SIGKILL) and clear errors for bad files."""
+import dataclasses
+import json
+import os
+import signal
+import subprocess
+import sys
+import time
+import warnings
+from pathlib import Path
+
+import h5py
+import numpy as np
+import pytest
+
+from engine import Scene, io, laws, run, step
+from engine.model import Model
+from engine.state import State
+from engine.step import CallbackWriter, NonConvergenceWarning
+from tests.helpers import G, lattice_pile
+
+ROOT = Path(__file__).resolve().parents[2]
+R_TUBE = 6e-3
+
+
+def scene(n=40, dt=2e-4, area=None):
+    """40 grains and a 15-bead prestrained elastic wire in a cylinder with a floor cap,
+    under a pressure-driven lid (the driven wall)."""
+    rng = np.random.default_rng(5)
+    pts, radii = lattice_pile(n, 1e-3, rng, ((-3.8e-3, -3.8e-3, 0), (3.8e-3, 3.8e-3, 0.05)))
+    s = Scene(gravity=(0, 0, -G))
+    s.add_spheres(pts, radii, density=2650.0, group="sand")
+    z0 = pts[:, 2].max() + 3e-3
+    t = np.linspace(0, 2 * np.pi, 16)[:-1]
+    wire = np.c_[3e-3 * np.cos(t), 3e-3 * np.sin(t), np.full(t.size, z0)]
+    s.add_wire(wire, radius=5e-4, density=1400.0, group="wire",
+               law=laws.ElasticWire(stiffness=50.0, prestrain=0.01))
+    s.add_cylinder(center=(0, 0, 0), radius=R_TUBE, height=0.06, group="wall", bottom=True)
+    lid = s.add_plane(point=(0, 0, z0 + 2e-3), normal=(0, 0, -1), group="lid")
+    s.drive(lid, pressure=200.0, area=np.pi * R_TUBE ** 2 if area is None else area, mass=1e-3)
+    mu = laws.Coulomb(mu=0.4)
+    for a, b in (("sand", "sand"), ("sand", "wall"), ("wire", "sand"), ("wire", "wire"),
+                 ("wire", "wall")):
+        s.interact(a, b, mu)
+    s.interact("sand", "lid", laws.Coulomb(mu=0.0))
+    s.interact("wire", "lid", laws.Coulomb(mu=0.0))
+    return s.compile(dt=dt, tol=1e-5, max_iter=400)
+
+
+def _same(a, b):
+    return a.dtype == b.dtype and a.shape == b.shape and np.array_equal(a, b)
+
+
+class _Quiet(warnings.catch_warnings):
+    """Silence the NonConvergenceWarning of a short run (convergence is not tested here)."""
+
+    def __enter__(self):
+        super().__enter__()
+        warnings.simplefilter("ignore", NonConvergenceWarning)
+
+
+def _run(model, state, n):
+    with _Quiet():
+        run(model, state, n, progress=False)
+
+
+# -- checkpoint -------------------------------------------------------------------------------
+@pytest.mark.parametrize("at", [120, 500], ids=["falling", "verlet-reuse"])
+def test_restart_from_checkpoint_is_bit_identical(tmp_path, at):
+    """At step 120 grains fall and the candidate list is rebuilt nearly every step; at 500
+    the pile is settling and the saved Verlet list is reused by the next steps."""
+    model, state = scene()
+    _run(model, state, at)
+    assert state.contacts_buf.count > 20 and np.count_nonzero(state.link_impulse) > 0
+    path = tmp_path / "ckpt.h5"
+    io.save(path, model, state)
+    model2, state2 = io.load(path)
+    rebuilt = [step(model, state).rebuilt, step(model2, state2).rebuilt]
+    if at == 500:
+        assert rebuilt == [False, False]
+    _run(model, state, 99)
+    _run(model2, state2, 99)
+    assert state2.step == state.step == at + 100
+    assert state2.time == state.time and state2.time_compensation == state.time_compensation
+    for name in ("position", "vel6", "link_impulse", "warm_key", "warm_impulse"):
+        assert _same(getattr(state2, name), getattr(state, name)), name
+    assert _same(state2.spin, state.spin) and _same(state2.velocity, state.velocity)
+    assert _same(state2.links.tension, state.links.tension)
+    assert _same(state2.contacts.force, state.contacts.force)
+    lid = model.bodies_in("lid")[0]
+    assert state.position[lid, 2] < scene()[1].position[lid, 2]  # the driven lid did move
+
+
+def test_restart_without_the_warm_start_would_differ(tmp_path):
+    """The previous test is sensitive: dropping the saved warm-start data changes the bits."""
+    model, state = scene()
+    _run(model, state, 120)
+    io.save(tmp_path / "c.h5", model, state)
+    _, cold = io.load(tmp_path / "c.h5")
+    cold.warm_key, cold.warm_impulse = np.zeros(0, np.int64), np.zeros((0, 3))
+    cold.link_impulse[:] = 0.0
+    _run(model, state, 20)
+    _run(model, cold, 20)
+    assert not np.array_equal(cold.position, state.position)
+
+
+def test_checkpoint_round_trips_every_model_and_state_field(tmp_path):
+    s = Scene(gravity=(0.1, 0, -G))
+    s.add_spheres([[0, 0, 1e-3], [3e-3, 0, 1e-3]], 1e-3, density=2650.0)  # on the floor
+    s.add_wire([[0, 0, 3.05e-3], [2.5e-3, 0, 3.05e-3], [5e-3, 0, 3.05e-3]], radius=1e-3, density=1e3,
+               group="wire", law=laws.BrittleElasticWire(stiffness=3.0, prestrain=0.02,
+                                                         max_tension=7.0))
+    floor = s.add_plane(group="wall")
+    piston = s.add_plane(point=(0, 0, 0.02), normal=(0, 0, -1), group="wall")
+    side = s.add_plane(point=(-5e-3, 0, 0), normal=(1, 0, 0), group="side")
+    ball = s.add_spheres([[0, 3e-3, 1e-3]], 1e-3, density=2650.0, group="ball")[0]
+    s.drive(piston, velocity=(0, 0, -1e-3))
+    s.drive(side, force=(2.0, 0, 0), mass=0.5)
+    s.drive(ball, force=(0, 0, 1e-4))
+    for a, b in (("sand", "sand"), ("sand", "wall"), ("wire", "sand"), ("wire", "wall"),
+                 ("wire", "wire"), ("sand", "side"), ("wire", "side"), ("ball", "side"),
+                 ("ball", "sand"), ("ball", "wire"), ("ball", "ball"), ("ball", "wall")):
+        s.interact(a, b, laws.Coulomb(mu=0.25 if "wire" in (a, b) else 0.5))
+    model, state = s.compile(dt=1e-4, theta=0.7, tol=1e-7, max_iter=77, relax=0.9)
+    _run(model, state, 30)
+    io.save(tmp_path / "c.h5", model, state)
+    m2, s2 = io.load(tmp_path / "c.h5")
+    for f in dataclasses.fields(Model):
+        a, b = getattr(model, f.name), getattr(m2, f.name)
+        if isinstance(a, np.ndarray):
+            assert _same(a, b) and not b.flags.writeable, f.name
+    assert m2.options == model.options and m2.group_names == model.group_names
+    assert m2.laws == model.laws and type(m2.laws[0]) is laws.Coulomb
+    assert [(d.body, d.kind) for d in m2.drives] == [(d.body, d.kind) for d in model.drives]
+    for d, e in zip(model.drives, m2.drives):
+        assert _same(np.asarray(d.value), np.asarray(e.value)) and d.area == e.area
+    for f in dataclasses.fields(State):  # every field, also ones added after this test
+        a, b = getattr(state, f.name), getattr(s2, f.name)
+        if f.name == "pairs":
+            assert _same(a[:state.n_pairs], b[:state.n_pairs]) and a.shape == b.shape
+        elif isinstance(a, np.ndarray):
+            assert _same(a, b), f.name
+        elif f.name != "contacts_buf":
+            assert a == b and type(a) is type(b), f.name
+    c, c2 = state.contacts_buf, s2.contacts_buf
+    assert (c.count, c.n_pair, c.cap) == (c2.count, c2.n_pair, c2.cap) and c.count > 0
+    for name in c._FIELDS:
+        assert _same(getattr(c, name)[:c.count], getattr(c2, name)[:c.count]), name
+    # every dataset carries its SI unit, the root its format and version
+    with h5py.File(tmp_path / "c.h5") as f:
+        assert f.attrs["format"] == "nscd-workbench" and f.attrs["format_version"] == io.FORMAT_VERSION
+        units = {}
+
+        def collect(name, obj):
+            if isinstance(obj, h5py.Dataset):
+                units[name] = obj.attrs.get("unit")
+
+        f.visititems(collect)
+        assert len(units) > 40 and all(isinstance(u, str) and u for u in units.values()), units
+        assert units["model/body_radius"] == "m" and units["state/warm_impulse"] == "N s"
+        assert units["model/drives/1/value"] == "N" and units["state/vel6"].startswith("columns")
+
+
+def test_every_model_and_state_array_has_a_unit():
+    model, state = scene()
+    for obj, table in ((model, io.MODEL_UNITS), (state, io.STATE_UNITS)):
+        arrays = {f.name for f in dataclasses.fields(obj) if isinstance(getattr(obj, f.name), np.ndarray)}
+        assert arrays - {"pairs_ref"} <= set(table), sorted(arrays - set(table))
+
+
+def test_save_refuses_a_callable_drive_and_names_it(tmp_path):
+    model, state = scene(area=lambda m, s: np.pi * R_TUBE ** 2)
+    lid = model.bodies_in("lid")[0]
+    with pytest.raises(ValueError, match=rf"pressure drive on body {lid}: area is a Python callable"):
+        io.save(tmp_path / "c.h5", model, state)
+    assert not any(tmp_path.iterdir())  # nothing half-written is left
+    model, state = scene()
+    with pytest.raises(ValueError, match="state must be an engine State"):
+        io.save(tmp_path / "c.h5", model, model)
+
+
+def test_checkpoint_writer_saves_on_its_trigger(tmp_path):
+    model, state = scene()
+    with _Quiet():
+        run(model, state, 20, writers=[io.Checkpoint(tmp_path / "c_{step:04d}.h5", trigger=10)],
+            progress=False)
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["c_0010.h5", "c_0020.h5"]
+    assert io.load(tmp_path / "c_0020.h5")[1].step == 20
+
+
+# -- bad files ------------------------------------------------------------------------------
+@pytest.fixture
+def checkpoint(tmp_path):
+    model, state = scene()
+    _run(model, state, 5)
+    path = tmp_path / "c.h5"
+    io.save(path, model, state)
+    return path
+
+
+@pytest.mark.timeout(120)  # a reader that loops on a damaged file fails, never hangs CI
+def test_corrupt_truncated_foreign_and_newer_files_give_a_format_error(tmp_path, checkpoint):
+    garbage = tmp_path / "garbage.h5"
+    garbage.write_bytes(np.random.default_rng(0).bytes(4096))
+    truncated = tmp_path / "truncated.h5"
+    truncated.write_bytes(checkpoint.read_bytes()[: checkpoint.stat().st_size // 2])
+    foreign = tmp_path / "foreign.h5"
+    with h5py.File(foreign, "w") as f:
+        f["data"] = np.arange(3)
+    newer = tmp_path / "newer.h5"
+    newer.write_bytes(checkpoint.read_bytes())
+    with h5py.File(newer, "a") as f:
+        f.attrs["format_version"] = io.FORMAT_VERSION + 1
+    flipped = tmp_path / "flipped.h5"  # one byte of the stored positions changed
+    raw = bytearray(checkpoint.read_bytes())
+    at = raw.find(io.load(checkpoint)[1].position[3:5].tobytes())
+    assert at > 0
+    raw[at + 5] ^= 0xFF
+    flipped.write_bytes(bytes(raw))
+    holed = tmp_path / "holed.h5"
+    holed.write_bytes(checkpoint.read_bytes())
+    with h5py.File(holed, "a") as f:
+        del f["state/warm_key"]
+    cases = {garbage: "not a readable HDF5 file", truncated: "HDF5|corrupt",
+             foreign: "not an nscd-workbench file", newer: "newer than this engine reads",
+             holed: "corrupt or incomplete.*warm_key", flipped: "corrupt or incomplete"}
+    for path, msg in cases.items():
+        with pytest.raises(io.FormatError, match=msg) as e:
+            io.load(path)
+        assert isinstance(e.value, ValueError) and str(path) in str(e.value)
+        assert not isinstance(e.value, KeyError)
+    with pytest.raises(io.FormatError, match="is a checkpoint file, expected a history"):
+        io.read_history(checkpoint)
+    with pytest.raises(FileNotFoundError):
+        io.load(tmp_path / "missing.h5")
+
+
+# -- history ----------------------------------------------------------------------------------
+def _stress(model, state):
+    c = state.contacts
+    if not len(c):
+        return np.zeros((3, 3))
+    return np.einsum("ki,kj->ij", c.force, c.point)
+
+
+def test_history_reload_returns_what_was_observed_during_the_run(tmp_path):
+    from engine.analysis import wall_forces
+
+    model, state = scene()
+    seen, frames = [], []
+
+    def observe(m, s):
+        v = s.vel6[m.sphere_ids]
+        ke = 0.5 * (np.sum(m.body_mass[m.sphere_ids] * (v[:, :3] ** 2).sum(1))
+                    + np.sum(m.body_inertia[m.sphere_ids] * (v[:, 3:] ** 2).sum(1)))
+        seen.append((s.time, s.step, ke, s.stats.iterations, s.stats.residual,
+                     s.stats.converged, s.stats.n_contacts, wall_forces(m, s),
+                     np.count_nonzero(s.link_impulse), _stress(m, s)))
+        if s.step % 25 == 0:
+            c = s.contacts
+            frames.append((s.step, s.position.copy(), s.velocity.copy(), s.spin.copy(),
+                           s.links.tension, c.i, c.j, c.force))
+
+    path = tmp_path / "run.h5"
+    with io.History(path, frames=25, flush=10, extra={"stress": (_stress, "N m")}) as h:
+        with _Quiet():  # two runs append to the same history
+            run(model, state, 60, writers=[CallbackWriter(observe, 1), h], progress=False)
+            run(model, state, 40, writers=[CallbackWriter(observe, 1), h], progress=False)
+    d = io.read_history(path)
+    assert d.n_records == 100 and d.n_frames == 4
+    t, st, ke, it, res, conv, nc, wf, nl, sig = map(np.asarray, zip(*seen))
+    assert np.array_equal(d.time, t) and np.array_equal(d.step, np.arange(1, 101))
+    assert np.allclose(d.kinetic_energy, ke, rtol=1e-12, atol=0)
+    assert np.array_equal(d.iterations, it) and np.array_equal(d.residual, res)
+    assert np.array_equal(d.converged, conv) and np.array_equal(d.n_contacts, nc)
+    assert np.array_equal(d.n_links, nl) and nl.max() > 0
+    assert d.wall_force.shape == (100, model.n_walls, 3) and np.abs(wf).max() > 0
+    assert np.allclose(d.wall_force, wf, rtol=1e-12, atol=1e-15)
+    assert np.array_equal(d.wall_ids, model.wall_ids)
+    assert np.array_equal(d.extra["stress"], sig) and d.units["stress"] == "N m"
+    assert d.units["wall_force"] == "N" and d.units["kinetic_energy"] == "J"
+    assert np.array_equal(d.frame_step, [25, 50, 75, 100])
+    for k, (s_, pos, vel, spin, ten, ci, cj, cf) in enumerate(frames):
+        assert d.frame_step[k] == s_
+        assert np.array_equal(d.position[k], pos) and np.array_equal(d.velocity[k], vel)
+        assert np.array_equal(d.spin[k], spin) and np.array_equal(d.link_tension[k], ten)
+        c = d.contacts(k)
+        assert np.array_equal(c["i"], ci) and np.array_equal(c["j"], cj)
+        assert np.array_equal(c["force"], cf)
+    # the model is stored once: load() gives it back with the state of a frame
+    m2, s2 = io.load(path, frame=1)
+    assert _same(m2.body_radius, model.body_radius) and m2.options == model.options
+    assert s2.step == 50 and np.array_equal(s2.position, frames[1][1])
+    assert np.allclose(s2.contacts.force, frames[1][7], rtol=1e-9, atol=1e-12)
+    assert np.allclose(s2.links.tension, frames[1][4], rtol=1e-12, atol=0)
+    with pytest.raises(ValueError, match="frame must be an integer in"):
+        io.load(path, frame=9)
+
+
+def test_history_keeps_a_callable_drive_as_a_placeholder(tmp_path):
+    area = lambda m, s: np.pi * R_TUBE ** 2  # noqa: E731
+    model, state = scene(area=area)
+    with io.History(tmp_path / "h.h5", frames=5) as h:
+        run(model, state, 5, writers=[h], progress=False)
+    m2, s2 = io.load(tmp_path / "h.h5")
+    lid = model.bodies_in("lid")[0]
+    with pytest.raises(ValueError, match=rf"area of the pressure drive on body {lid} was the "
+                                         r"Python callable .*<lambda>"):
+        step(m2, s2)
+    m3, s3 = io.load(tmp_path / "h.h5", callables={(lid, "area"): area})
+    step(m3, s3)
+    assert s3.step == 6
+
+
+# -- crash safety -----------------------------------------------------------------------------
+CHILD = """
+import sys
+from engine import io, run
+from tests.engine.test_io import scene
+
+model, state = scene()
+with io.History(sys.argv[1], frames=50, flush=20) as h:
+    summary = run(model, state, 10**7, writers=[h], progress=False)
+print(summary.interrupted, state.step, flush=True)
+"""
+
+
+def _wait_records(proc, path, n, timeout=120.0):
+    t0 = time.monotonic()
+    while time.monotonic() - t0 < timeout:
+        assert proc.poll() is None, proc.communicate()
+        try:
+            d = io.read_history(path, frames=False)
+            if d.n_records >= n:
+                return d
+        except (FileNotFoundError, io.FormatError):
+            pass
+        time.sleep(0.2)
+    raise AssertionError(f"no {n} records in {path} after {timeout} s")
+
+
+@pytest.mark.timeout(300)
+@pytest.mark.parametrize("sig", [signal.SIGINT, signal.SIGTERM, signal.SIGKILL],
+                         ids=["SIGINT", "SIGTERM", "SIGKILL"])
+def test_killed_run_leaves_a_readable_history(tmp_path, sig):
+    path = tmp_path / "run.h5"
+    script = tmp_path / "child.py"
+    script.write_text(CHILD)
+    env = {**os.environ, "PYTHONPATH": str(ROOT)}
+    proc = subprocess.Popen([sys.executable, str(script), str(path)], cwd=ROOT, env=env,
+                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    try:
+        before = _wait_records(proc, path, 100)
+        proc.send_signal(sig)
+        out, err = proc.communicate(timeout=60)
+    finally:
+        if proc.poll() is None:
+            proc.kill()
+            proc.wait()
+    d = io.read_history(path)
+    n = d.n_records
+    assert n >= before.n_records
+    assert np.array_equal(d.step, np.arange(1, n + 1))  # complete, in order, no torn record
+    assert d.n_frames >= 2 and d.frame_step[-1] >= d.step[-1] - 50
+    assert np.all(np.isfinite(d.position)) and d.wall_force.shape == (n, 2, 3)
+    assert io.load_model(path).n_bodies == scene()[0].n_bodies
+    if sig == signal.SIGKILL:
+        assert proc.returncode == -signal.SIGKILL
+    else:  # run() traps the signal, finishes the step and flushes: nothing is lost
+        assert proc.returncode == 0, err
+        interrupted, last = out.split()
+        assert interrupted == "True"
+        assert 0 <= int(last) - d.step[-1] <= 20 and int(last) == d.step[-1]
+        with h5py.File(path, "r") as f:  # closed cleanly: opens without SWMR
+            assert json.loads(f["records"].attrs["extra"]) == []
+
+
+def test_history_bad_input_names_the_field(tmp_path):
+    p = tmp_path / "h.h5"
+    for kw, msg in ((dict(frames=-1), "frames must be"), (dict(flush=0), "flush must be"),
+                    (dict(trigger="x"), "trigger must be"),
+                    (dict(extra={"time": len}), "bad record name 'time'"),
+                    (dict(extra={"a": 3.0}), r"extra\['a'\] must be a callable")):
+        with pytest.raises(ValueError, match=msg):
+            io.History(p, **kw)
+    model, state = scene()
+    shapes = iter([np.zeros(3), np.zeros(4)])
+    h = io.History(p, extra={"grows": lambda m, s: next(shapes)})
+    with pytest.raises(ValueError, match=r"extra\['grows'\] returned shape \(4,\), expected \(3,\)"):
+        run(model, state, 2, writers=[h], progress=False)
+    h.close()
+    with pytest.raises(ValueError, match="is closed"):
+        h.write(model, state)

@@ -1,0 +1,83 @@
+"""Experiments benchmark (issue 7): wall time and steps of each of the paper's tests at the
+largest scale run here, and the time projected for scale 1 (the paper's size).
+
+Projection: cost ∝ bodies × steps × mean NLGS sweeps per step, the sweeps taken as measured
+(they grow with the sample, so the projection is a lower bound when the solver is the
+bottleneck).  Targets: cylinder triaxial at scale 1 under 10 min; slope under 1 h.
+
+Usage: python bench/bench_experiments.py [--scale-cyl 0.2] [--scale-box 0.2] [--scale-slope 0.1]
+Writes bench/results/experiments-YYYYMMDD-HHMM.json.
+"""
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import platform
+import sys
+import tempfile
+import time
+import warnings
+
+import numpy as np
+
+sys.path.insert(0, os.path.join(os.path.dirname(__file__), ".."))
+
+from engine.experiments import box_triaxial, cylinder_triaxial, slope_deposit  # noqa: E402
+from engine.io import read_history  # noqa: E402
+
+# the paper's sizes: bodies, and the steps of the paper's run
+PAPER = {"cylinder_triaxial": (7300, 2000), "box_triaxial": (8000, 100000),
+         "slope_deposit": (28900, 4000)}
+
+
+def measure(name, fn, scale, tmp):
+    path = os.path.join(tmp, f"{name}.h5")
+    t = time.perf_counter()
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        r = fn(scale, history=path, progress=True)
+    wall = time.perf_counter() - t
+    h = read_history(path, frames=False)
+    bodies = r.params["n_sand"] + r.params["n_beads"]
+    steps = r.convergence["steps"]
+    sweeps = float(np.mean(h.iterations)) if h.n_records else float("nan")
+    pb, ps = PAPER[name]
+    per_body_step = wall / (bodies * steps)
+    row = dict(test=name, scale=scale, bodies=bodies, steps=steps, wall_seconds=wall,
+               seconds_per_step=wall / steps, mean_sweeps=sweeps,
+               non_converged_share=r.convergence["share"],
+               paper_bodies=pb, paper_steps=ps,
+               projected_scale1_seconds_for_our_steps=per_body_step * pb * steps,
+               projected_scale1_seconds_for_paper_steps=per_body_step * pb * ps)
+    print(f"{name:18s} scale {scale:5.3f}: {bodies:6d} bodies, {steps:6d} steps, {wall:7.1f} s "
+          f"({1e3 * wall / steps:.1f} ms/step, {sweeps:.0f} sweeps/step, "
+          f"{r.convergence['share']:.0%} not converged); projected at scale 1 "
+          f"({pb} bodies × {ps} steps): {per_body_step * pb * ps / 60:.1f} min")
+    return row
+
+
+def main():
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--scale-cyl", type=float, default=0.2)
+    ap.add_argument("--scale-box", type=float, default=0.1)
+    ap.add_argument("--scale-slope", type=float, default=0.1)
+    a = ap.parse_args()
+    out = {"machine": platform.platform(), "cpu_count": os.cpu_count(),
+           "load_avg_start": os.getloadavg(), "runs": []}
+    with tempfile.TemporaryDirectory() as tmp:
+        out["runs"].append(measure("cylinder_triaxial", cylinder_triaxial, a.scale_cyl, tmp))
+        out["runs"].append(measure("box_triaxial", box_triaxial, a.scale_box, tmp))
+        out["runs"].append(measure("slope_deposit", slope_deposit, a.scale_slope, tmp))
+    out["targets_seconds"] = {"cylinder_triaxial": 600, "slope_deposit": 3600}
+    out["load_avg_end"] = os.getloadavg()
+    os.makedirs(os.path.join(os.path.dirname(__file__), "results"), exist_ok=True)
+    path = os.path.join(os.path.dirname(__file__), "results",
+                        time.strftime("experiments-%Y%m%d-%H%M.json"))
+    with open(path, "w") as f:
+        json.dump(out, f, indent=1)
+    print("wrote", path)
+
+
+if __name__ == "__main__":
+    main()

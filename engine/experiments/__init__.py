@@ -1,0 +1,15 @@
+"""The paper's three mechanical tests (§3.1-3.3), each a function with the paper's
+parameters as defaults and a ``scale`` argument (1 = the paper's size; the default a small
+size), recording an HDF5 history (:class:`engine.io.History`) and returning a
+:class:`TestResult` with the curves.
+
+* :func:`slope_deposit` — §3.1, Fig. 8-10;
+* :func:`box_triaxial` — §3.2, Fig. 11-12;
+* :func:`cylinder_triaxial` — §3.3, Fig. 13-16, Table 2.
+"""
+from .common import ConvergenceError, TestResult, inertial_number, inertial_rate
+from .slope import SlopeResult, slope_deposit
+from .triaxial import box_triaxial, cylinder_triaxial
+
+__all__ = ["slope_deposit", "box_triaxial", "cylinder_triaxial", "TestResult", "SlopeResult",
+           "ConvergenceError", "inertial_rate", "inertial_number"]

@@ -1,0 +1,199 @@
+"""Pieces shared by the paper's three tests: result object, loading-rate choice from the
+inertial number, convergence bookkeeping, recorders, the staged run loop."""
+from __future__ import annotations
+
+import math
+import os
+import sys
+import warnings
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from ..step import NonConvergenceWarning, run
+
+__all__ = ["TestResult", "ConvergenceError", "inertial_rate", "check_scale"]
+
+
+class ConvergenceError(RuntimeError):
+    """Too many steps of a test did not converge; ``result`` holds what was recorded."""
+
+    def __init__(self, message, result):
+        super().__init__(message)
+        self.result = result
+
+
+@dataclass
+class TestResult:
+    """Curves of a mechanical test, one row per recorded step.
+
+    Conventions: ``axial_strain`` and ``volumetric_strain`` are positive in compression /
+    contraction and ``deviator`` q = σ_axial − σ_lateral [Pa] positive in compression (soil
+    mechanics); the tensors ``stress``, ``sand_stress`` and ``wire_stress`` (n, 3, 3) [Pa]
+    are Weber stresses (Eq. 18) with tension positive, as :func:`engine.analysis.weber_stress`.
+
+    Attributes
+    ----------
+    name : str
+    time : (n,) [s];  step : (n,)
+    axial_strain, volumetric_strain : (n,) [-]
+    deviator, mean_stress : (n,) [Pa]   q and p = −tr σ / 3.
+    stress, sand_stress, wire_stress : (n, 3, 3) [Pa]
+    wire_equivalent : (n,) [Pa]         ‖dev σ_wire‖ (Fig. 15).
+    history : str                        the HDF5 history file.
+    params : dict                        every parameter used, the loading rate and the
+                                         inertial number chosen, seeds.
+    convergence : dict                   steps, non-converged count and share, the limit.
+    extra : dict                         test-specific outputs (wall stresses, profiles,
+                                         toroidal maps, H, wire statistics ...).
+    """
+
+    name: str
+    time: np.ndarray
+    step: np.ndarray
+    axial_strain: np.ndarray
+    volumetric_strain: np.ndarray
+    deviator: np.ndarray
+    mean_stress: np.ndarray
+    stress: np.ndarray
+    sand_stress: np.ndarray
+    wire_stress: np.ndarray
+    wire_equivalent: np.ndarray
+    history: str
+    params: dict = field(default_factory=dict)
+    convergence: dict = field(default_factory=dict)
+    extra: dict = field(default_factory=dict)
+
+    def __str__(self):
+        c = self.convergence
+        s = (f"{self.name}: {len(self.time)} records, {c.get('steps', 0)} steps, "
+             f"{c.get('non_converged', 0)} not converged ({c.get('share', 0):.1%}); ")
+        if len(self.time):
+            s += (f"final axial strain {self.axial_strain[-1]:.4f}, deviator "
+                  f"{self.deviator[-1]:.4g} Pa, mean stress {self.mean_stress[-1]:.4g} Pa; ")
+        return s + f"history {self.history}"
+
+
+def check_scale(scale) -> float:
+    s = float(scale)
+    if not (math.isfinite(s) and s > 0):
+        raise ValueError(f"scale must be finite and > 0, got {scale!r}")
+    return s
+
+
+def check_positive(name, value, unit):
+    v = float(value)
+    if not (math.isfinite(v) and v > 0):
+        raise ValueError(f"{name} must be finite and > 0 {unit}, got {value!r}")
+    return v
+
+
+def inertial_rate(pressure, d_mean, density, inertial_number):
+    """Strain rate [1/s] of inertial number I = ε̇ d √(ρ/p) (GDR MiDi 2004)."""
+    return inertial_number * math.sqrt(pressure / density) / d_mean
+
+
+def inertial_number(rate, pressure, d_mean, density):
+    return rate * d_mean * math.sqrt(density / pressure)
+
+
+def choose_rate(rate, pressure, d_mean, density, *, target_I, allow_dynamic):
+    """The loading strain rate: from ``target_I`` when ``rate`` is None; a given rate whose
+    inertial number exceeds 0.1 is refused unless ``allow_dynamic``."""
+    if rate is None:
+        return inertial_rate(pressure, d_mean, density, target_I), target_I
+    rate = check_positive("strain_rate", rate, "[1/s]")
+    I = inertial_number(rate, pressure, d_mean, density)
+    if I > 0.1 and not allow_dynamic:
+        raise ValueError(f"strain_rate {rate:g} 1/s gives an inertial number I = {I:.3g} > 0.1 "
+                         f"(a dynamic test); lower it or pass allow_dynamic=True")
+    return rate, I
+
+
+class Stages:
+    """Runs a test in chunks (so drivers can be updated between them), with one tqdm bar,
+    counts non-converged steps, stops on Ctrl-C, and keeps the recorders."""
+
+    def __init__(self, model, state, writers, *, progress, total, desc):
+        self.model, self.state, self.writers = model, state, list(writers)
+        self.steps = 0
+        self.non_converged = []
+        self.interrupted = False
+        self.bar = None
+        if progress:
+            from tqdm.auto import tqdm
+            self.bar = tqdm(total=int(total), unit="step", desc=desc, dynamic_ncols=True,
+                            mininterval=0.1 if sys.stderr.isatty() else 10.0)
+
+    def run(self, n):
+        """Run n steps; False if interrupted."""
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore", NonConvergenceWarning)
+            s = run(self.model, self.state, int(n), writers=self.writers, progress=False)
+        self.steps += s.steps
+        self.non_converged += s.non_converged
+        if self.bar is not None:
+            self.bar.update(s.steps)
+            self.bar.set_postfix(nc=len(self.non_converged), refresh=False)
+        if s.interrupted:
+            self.interrupted = True
+        return not s.interrupted
+
+    def close(self):
+        if self.bar is not None:
+            self.bar.close()
+
+    def convergence(self, limit):
+        share = len(self.non_converged) / self.steps if self.steps else 0.0
+        return dict(steps=self.steps, non_converged=len(self.non_converged), share=share,
+                    limit=limit, interrupted=self.interrupted,
+                    non_converged_steps=self.non_converged[:1000])
+
+
+class Recorder:
+    """A writer computing named quantities ``fn(model, state)`` every ``every`` steps and
+    keeping them in lists (``rows``); ``last`` holds the latest values, which the HDF5
+    history's extras read so nothing is computed twice."""
+
+    def __init__(self, fns: dict, every: int):
+        self.fns = fns
+        self.every = int(every)
+        self.rows = {k: [] for k in fns}
+        self.last = {}
+        self.active = True
+
+    def trigger(self, step):
+        return self.active and step % self.every == 0
+
+    def write(self, model, state):
+        for k, fn in self.fns.items():
+            v = fn(model, state)
+            self.last[k] = v
+            self.rows[k].append(v)
+
+    def array(self, k):
+        return np.asarray(self.rows[k])
+
+
+def history_writer(path, recorder: Recorder, units: dict, every: int, frames: int):
+    """An :class:`engine.io.History` recording the recorder's latest values as extras."""
+    from ..io import HISTORY_SCALARS, History
+
+    os.makedirs(os.path.dirname(os.path.abspath(path)), exist_ok=True)
+    extra = {k: ((lambda m, s, k=k: recorder.last[k]), units.get(k, "-")) for k in recorder.fns
+             if k not in HISTORY_SCALARS}       # time, step ... are recorded by History itself
+    h = History(path, trigger=lambda step: recorder.trigger(step), frames=frames, extra=extra,
+                flush=max(every, 1))
+    return h
+
+
+def finish(result: TestResult, stages: Stages, limit: float):
+    """Fill the convergence record and fail loudly past the limit."""
+    result.convergence = stages.convergence(limit)
+    c = result.convergence
+    if c["steps"] and c["share"] > limit:
+        raise ConvergenceError(
+            f"{result.name}: {c['non_converged']} of {c['steps']} steps ({c['share']:.1%}) hit "
+            f"max_iter without reaching tol (limit {limit:.0%}); raise max_iter, loosen tol or "
+            f"lower dt (the history is in {result.history})", result)
+    return result

@@ -1,0 +1,183 @@
+"""The slope deposit of §3.1 (Fig. 8-10): a cylindrical TexSol sample released on a "rubber
+plane" of equal fixed beads on a hexagonal lattice, run under gravity until it is at rest."""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from .. import laws
+from ..analysis import slope_profile
+from ..analysis.wire import direction_histogram, wire_chains, wire_stats
+from ..prep import slope_sample
+from ..prep.relax import kinetic_energy
+from ..scene import Scene
+from .common import Recorder, Stages, check_positive, check_scale, finish, history_writer
+
+__all__ = ["slope_deposit", "SlopeResult", "hex_floor"]
+
+G = 9.81
+
+
+@dataclass
+class SlopeResult:
+    """What :func:`slope_deposit` returns.
+
+    Attributes
+    ----------
+    name : str
+    profile : engine.analysis.SlopeProfile     h(r), p(r), regressions, max slope (Fig. 10).
+    max_slope_deg : float [deg]
+    sector_heights : (n_r, n_sectors) [m]      heap height per radial bin and angular sector
+                                               (axisymmetry check).
+    floor_force : float [N]                    vertical force on the rubber plane.
+    weight : float [N]                         weight of the sample.
+    time, kinetic_energy : (n,) [s], [J]       of the sample (sand and wire) per record.
+    wire_before, wire_after : engine.analysis.WireStats | None   (tortuosity: Fig. 7)
+    histograms_before, histograms_after : {plane: (edges, weights)}  (Fig. 8-9)
+    at_rest : bool;  history : str;  params, convergence : dict
+    """
+
+    name: str
+    profile: object
+    max_slope_deg: float
+    sector_heights: np.ndarray
+    floor_force: float
+    weight: float
+    time: np.ndarray
+    kinetic_energy: np.ndarray
+    wire_before: object
+    wire_after: object
+    histograms_before: dict
+    histograms_after: dict
+    at_rest: bool
+    history: str
+    params: dict = field(default_factory=dict)
+    convergence: dict = field(default_factory=dict)
+
+    def __str__(self):
+        c = self.convergence
+        s = (f"{self.name}: {'at rest' if self.at_rest else 'NOT at rest'} after "
+             f"{c.get('steps', 0)} steps; max slope {self.max_slope_deg:.1f}°; floor force / "
+             f"weight = {self.floor_force / self.weight:.4f}")
+        if self.wire_before is not None:
+            s += (f"; tortuosity {self.wire_before.tortuosity:.0f} -> "
+                  f"{self.wire_after.tortuosity:.0f} 1/m")
+        return s + f"; history {self.history}"
+
+
+def hex_floor(radius: float, extent: float, z: float = 0.0) -> np.ndarray:
+    """Centres of touching beads of ``radius`` [m] on a hexagonal lattice covering the disk
+    of radius ``extent`` [m] about the z axis, at height ``z`` + radius."""
+    a = 2 * radius
+    n = int(math.ceil(extent / a)) + 1
+    i, j = np.meshgrid(np.arange(-n, n + 1), np.arange(-2 * n, 2 * n + 1), indexing="ij")
+    x = a * (i + 0.5 * (j % 2))
+    y = a * math.sqrt(3) / 2 * j
+    keep = np.hypot(x, y) <= extent
+    return np.stack([x[keep], y[keep], np.full(keep.sum(), z + radius)], 1)
+
+
+def _hists(chains):
+    return {pl: direction_histogram(chains, pl, bins=18) for pl in ("xy", "xz", "yz")}
+
+
+def slope_deposit(scale: float = 0.02, *, wire: bool = True, wire_density: float | None = None,
+                  wire_law=None, steps: int = 4000, ke_fraction: float = 1e-4,
+                  rubber_radius: float = 0.3e-3, floor_extent: float = 5.0, dt: float = 5e-5,
+                  theta: float = 0.5, tol: float = 1e-4, max_iter: int = 1000, mu: float = 0.5,
+                  mu_floor: float = 0.8, mu_wire: float = 0.3, record_every: int = 20,
+                  frames: int = 200, max_nonconverged: float = 0.25,
+                  history: str = "out/slope_deposit.h5", seed: int = 0,
+                  progress: bool = True) -> SlopeResult:
+    """The slope deposit of §3.1.
+
+    The sample is :func:`engine.prep.slope_sample` (Ø12 mm × 14 mm, 26 000 grains Ø0.2–0.6
+    mm + 2 900 beads at 400 km·m⁻³ with a wire-free outer layer at ``scale`` = 1;
+    ``wire_density=800e3`` for the paper's TexSol(2), ``wire=False`` for sand only), lifted
+    onto a floor of fixed beads of ``rubber_radius`` [m] on a hexagonal lattice spanning
+    ``floor_extent`` × the sample radius, and released (no mould) under gravity.  It runs
+    until the sample's kinetic energy is below ``ke_fraction`` of its peak, or ``steps``
+    steps (the paper's 4 000 steps of 0.05 ms).
+    """
+    scale = check_scale(scale)
+    check_positive("rubber_radius", rubber_radius, "[m]")
+    check_positive("floor_extent", floor_extent, "[-]")
+    if not 0 < float(ke_fraction) < 1:
+        raise ValueError(f"ke_fraction must be in (0, 1), got {ke_fraction!r}")
+    if int(steps) < 1:
+        raise ValueError(f"steps must be >= 1, got {steps!r}")
+    law = (laws.ElasticWire(stiffness=1.0) if wire_law is None else wire_law) if wire else None
+    sample = slope_sample(scale, wire=wire, wire_density=wire_density, seed=seed)
+    R = sample.container.radius
+    lift = 2 * rubber_radius
+    sample.sand_centers = sample.sand_centers + (0, 0, lift)
+    sample.wire = [c + (0, 0, lift) for c in sample.wire]
+    sc = Scene(gravity=(0.0, 0.0, -G))
+    sand, beads = sample.add_to(sc, wire_law=law) if wire else (sample.add_to(sc)[0], [])
+    ids = np.concatenate([sand, *beads]) if beads else np.asarray(sand)
+    rubber = sc.add_spheres(hex_floor(rubber_radius, floor_extent * R), rubber_radius,
+                            density=1000.0, group="rubber")
+    sc.fix(rubber)
+    sc.interact("sand", "sand", laws.Coulomb(mu=mu))
+    sc.interact("sand", "rubber", laws.Coulomb(mu=mu_floor))
+    sc.interact("rubber", "rubber", None)
+    if wire:
+        for g in ("sand", "wire"):
+            sc.interact("wire", g, laws.Coulomb(mu=mu_wire))
+        sc.interact("wire", "rubber", laws.Coulomb(mu=mu_floor))
+    model, state = sc.compile(dt=dt, theta=theta, tol=tol, max_iter=max_iter)
+    chains0 = wire_chains(model, state) if wire else []
+
+    rec = Recorder({"time": lambda m, s: s.time,
+                    "kinetic_energy": lambda m, s: kinetic_energy(m, s, ids)}, record_every)
+    hist = history_writer(history, rec, {"time": "s", "kinetic_energy": "J"}, record_every,
+                          frames)
+    stages = Stages(model, state, [rec, hist], progress=progress, total=steps,
+                    desc="slope deposit")
+    peak, at_rest = 0.0, False
+    try:
+        while stages.steps < steps:
+            if not stages.run(min(record_every, steps - stages.steps)):
+                break
+            ke = kinetic_energy(model, state, np.asarray(sand))
+            peak = max(peak, ke)
+            if stages.steps >= 10 * record_every and peak > 0 and ke <= ke_fraction * peak:
+                at_rest = True
+                break
+    finally:
+        stages.close()
+        hist.close()
+    prof = slope_profile(model, state, floor=rubber, center=(0.0, 0.0), r_max=floor_extent * R,
+                         n_bins=12, n_sectors=8, degree=1 if not wire else 3)
+    # per-sector heights for the axisymmetry check
+    hp = np.setdiff1d(model.sphere_ids, rubber)
+    x = state.position[hp]
+    rr = np.hypot(x[:, 0], x[:, 1])
+    rb = np.clip(np.digitize(rr, prof.r_edges) - 1, 0, len(prof.r) - 1)
+    sec = ((np.arctan2(x[:, 1], x[:, 0]) + np.pi) / (2 * np.pi) * 8).astype(int) % 8
+    sector_h = np.full((len(prof.r), 8), np.nan)
+    np.fmax.at(sector_h, (rb, sec), x[:, 2] + model.body_radius[hp] - lift)
+    c = state.contacts
+    on_j, on_i = np.isin(c.j, rubber), np.isin(c.i, rubber)
+    fz = float(-c.force[on_j & ~on_i, 2].sum() + c.force[on_i & ~on_j, 2].sum())
+    weight = float(model.body_mass[ids].sum() * G)
+    chains1 = wire_chains(model, state) if wire else []
+    res = SlopeResult(
+        name="slope_deposit", profile=prof, max_slope_deg=prof.max_slope_deg,
+        sector_heights=sector_h, floor_force=-fz, weight=weight,
+        time=rec.array("time"), kinetic_energy=rec.array("kinetic_energy"),
+        wire_before=wire_stats(chains0, sample.container.volume) if wire else None,
+        wire_after=wire_stats(chains1, sample.container.volume) if wire else None,
+        histograms_before=_hists(chains0) if wire else {},
+        histograms_after=_hists(chains1) if wire else {}, at_rest=at_rest,
+        history=hist.path,
+        params=dict(scale=scale, wire=wire, wire_density=sample.wire_density,
+                    wire_law=repr(law), steps=steps, ke_fraction=ke_fraction,
+                    rubber_radius=rubber_radius, n_rubber=int(len(rubber)),
+                    floor_extent=floor_extent, dt=dt, theta=theta, tol=tol,
+                    max_iter=max_iter, mu=mu, mu_floor=mu_floor, mu_wire=mu_wire, seed=seed,
+                    n_sand=int(sample.sand_radii.size), n_beads=sample.n_beads,
+                    friction_angle_deg=math.degrees(math.atan(mu))))
+    return finish(res, stages, max_nonconverged)

@@ -1,0 +1,475 @@
+"""Triaxial tests of the paper: the box (§3.2, Fig. 11-12) and the cylinder (§3.3,
+Fig. 13-16, Table 2).
+
+Both run two stages on a geometric sample (:mod:`engine.prep.samples`), under gravity:
+
+1. **isotropic**: the pressure p, raised linearly over ``ramp_steps``, is applied to the
+   sides (pressure-driven side walls for the box; loads on the free-surface particles for
+   the cylinder, :class:`engine.drivers.Confinement`) and to the top wall (pressure-driven),
+   until the Weber mean stress (Eq. 18) and the top wall's stress are within ``iso_tol`` of p
+   for ``iso_hold`` consecutive checks;
+2. **triaxial**: the top wall moves down at a constant velocity v = ε̇ H₀, the lateral
+   pressure held.  ε̇ comes from an inertial number I = ε̇ d √(ρ/p) (default I = 5e-4, a
+   quasi-static test; the value used is in ``result.params``).
+
+The default NLGS tolerance is 3e-4, not the engine's 1e-4: on these confined samples the
+residual stagnates between 1e-4 and 2.5e-4 (measured on the cylinder at scale 0.05: 1 041 of
+1 500 isotropic steps hit 1 000 sweeps at tol = 1e-4, relaxation 0.7 did not help; 186 of 800
+at 3e-4, nearly all during the pressure ramp).
+
+Between the stages the top wall's drive is switched (:meth:`engine.model.Model.with_drive`).
+A velocity-driven (kinematic) top wall in stage 1 was tried first: on a jammed packing of
+rigid grains it made the NLGS fail to converge in 529 of 600 steps and overshot the target
+stress by 100 %; a pressure-driven wall has no such infeasibility.
+"""
+from __future__ import annotations
+
+import math
+import os
+
+import numpy as np
+
+from .. import laws
+from ..analysis import (best_fit_strain, equivalent_stress, macro_stiffness, principal,
+                        toroidal_map, wall_forces, weber_stress)
+from ..drivers import Confinement
+from ..prep import Box, Cylinder, box_sample, cylinder_sample
+from ..scene import Scene
+from .common import (Recorder, Stages, TestResult, check_positive, check_scale, choose_rate,
+                     finish, history_writer)
+
+__all__ = ["cylinder_triaxial", "box_triaxial"]
+
+G = 9.81
+
+
+class _Pressure:
+    """The stage-1 pressure [Pa], a callable of time for the drives; ``value`` is set by the
+    test as it ramps."""
+
+    def __init__(self):
+        self.value = 0.0
+
+    def __call__(self, t):
+        return self.value
+
+
+def _laws_for(scene, mu, mu_wall, mu_wire, wire):
+    scene.interact("sand", "sand", laws.Coulomb(mu=mu))
+    scene.interact("sand", "wall", laws.Coulomb(mu=mu_wall))
+    if wire:
+        scene.interact("wire", "sand", laws.Coulomb(mu=mu_wire))
+        scene.interact("wire", "wire", laws.Coulomb(mu=mu_wire))
+        scene.interact("wire", "wall", laws.Coulomb(mu=mu_wire))
+
+
+def _wire_law(wire_law):
+    if wire_law is None:
+        return laws.ElasticWire(stiffness=1.0)
+    if not isinstance(wire_law, laws.WireLaw):
+        raise ValueError(f"wire_law must be a wire law (engine.laws.RigidWire(), "
+                         f"ElasticWire(k) ...), got {wire_law!r}")
+    return wire_law
+
+
+def _common_checks(pressure, max_nonconverged, target_I, record_every):
+    p = check_positive("pressure", pressure, "[Pa]")
+    if not 0.0 <= float(max_nonconverged) <= 1.0:
+        raise ValueError(f"max_nonconverged must be a share in [0, 1], got {max_nonconverged!r}")
+    if not 0 < float(target_I) <= 0.1:
+        raise ValueError(f"target_I must be in (0, 0.1], got {target_I!r}")
+    if int(record_every) < 1:
+        raise ValueError(f"record_every must be >= 1, got {record_every!r}")
+    return p
+
+
+def _stage_arrays(rec, stage_of):
+    st = np.asarray(stage_of)
+    return {k: rec.array(k)[st == 1] for k in rec.rows}, {k: rec.array(k)[st == 0] for k in rec.rows}
+
+
+def cylinder_triaxial(scale: float = 0.05, *, pressure: float = 15e3, wire: bool = True,
+                      wire_law=None, axial_strain: float = 0.1, strain_rate: float | None = None,
+                      target_I: float = 5e-4, allow_dynamic: bool = False, dt: float = 5e-5,
+                      theta: float = 0.5, tol: float = 3e-4, max_iter: int = 1000,
+                      relax: float = 1.0, mu: float = 0.5, mu_wall: float = 0.5, mu_wire: float = 0.3,
+                      iso_tol: float = 0.02, iso_hold: int = 5, iso_max_steps: int = 4000,
+                      confine_every: int = 10, record_every: int = 10, frames: int = 100,
+                      torus_strains=(0.02, 0.05, 0.1), max_nonconverged: float = 0.25,
+                      ramp_steps: int = 400, history: str = "out/cylinder_triaxial.h5", seed: int = 0,
+                      progress: bool = True) -> TestResult:
+    """The cylinder triaxial test of §3.3 (Fig. 13-16, Table 2).
+
+    The sample is :func:`engine.prep.cylinder_sample` (Ø9 mm × 20 mm, 6 200 grains + a wire
+    at 250 km·m⁻³ at ``scale`` = 1) between a fixed floor and a top wall, confined by
+    ``pressure`` [Pa] on its free-surface particles, then loaded to ``axial_strain`` at a
+    constant velocity.  The paper's confining pressure for this test is not given: 15 kPa,
+    its box test's, is the default.  ``wire_law``: the paper's ElasticWire(k = 1 N) by
+    default; RigidWire() or ElasticWire(k) with k from 0.1 to 100 N for Table 2.
+
+    Returns a :class:`TestResult` (triaxial stage; the isotropic stage in
+    ``extra["isotropic"]``); ``extra`` also holds the toroidal wire-stress maps at
+    ``torus_strains`` (Fig. 13c), the macro-stiffness H of (ε_zz, σ_w^eq) (Table 2), the
+    sample radius and height.
+
+    Raises ValueError for bad input (naming it), ConvergenceError when more than
+    ``max_nonconverged`` of the steps hit ``max_iter``.
+    """
+    scale = check_scale(scale)
+    p = _common_checks(pressure, max_nonconverged, target_I, record_every)
+    eps_max = check_positive("axial_strain", axial_strain, "[-]")
+    law = _wire_law(wire_law) if wire else None
+    sample = cylinder_sample(scale, wire=wire, seed=seed)
+    sc = Scene(gravity=(0.0, 0.0, -G))
+    sand, beads = sample.add_to(sc, wire_law=law) if wire else (sample.add_to(sc)[0], [])
+    ids = np.concatenate([sand, *beads]) if beads else np.asarray(sand)
+    floor = sc.add_plane(point=(0, 0, 0), normal=(0, 0, 1), group="wall")
+    top_z = sample.height
+    d_mean = 2 * float(sample.sand_radii.mean())
+    rate, I = choose_rate(strain_rate, p, d_mean, 2650.0, target_I=target_I,
+                          allow_dynamic=allow_dynamic)
+    p_now = _Pressure()
+    # the membrane loads go on sand grains only: a cell's share on a light wire bead
+    # accelerates it by ~1e6 m/s² and blew the run up
+    conf = Confinement(0.0, np.asarray(sand))
+    m_sample = float(model_mass(sample))
+    top = sc.add_plane(point=(0, 0, top_z), normal=(0, 0, -1), group="wall")
+    sc.drive(top, pressure=p_now, mass=0.2 * m_sample,
+             area=lambda model, state: math.pi * conf.radius ** 2)
+    sc.fix(floor)
+    _laws_for(sc, mu, mu_wall, mu_wire, wire)
+    model, state = sc.compile(dt=dt, theta=theta, tol=tol, max_iter=max_iter, relax=relax)
+    conf.apply(model, state)
+    x_ref = {}
+    stage = {"value": 0}
+    stage_of = []
+
+    def stresses(model, state):
+        V = math.pi * conf.radius ** 2 * (state.position[top, 2] - state.position[floor, 2])
+        mem = conf.membrane_stress(model) / V
+        # Eq. (18) over the whole sample with volume V (the membrane is its lateral boundary)
+        sand_s = _weber(model, state, "sand", V) - mem
+        wire_s = _weber(model, state, "wire", V) if model.n_links else np.zeros((3, 3))
+        return sand_s + wire_s, sand_s, wire_s, V
+
+    def sample_values(model, state):
+        tot, sand_s, wire_s, V = stresses(model, state)
+        H = state.position[top, 2] - state.position[floor, 2]
+        stage_of.append(stage["value"])
+        return dict(stress=tot, sand_stress=sand_s, wire_stress=wire_s, height=H, volume=V,
+                    radius=conf.radius, time=state.time, step=state.step)
+
+    rec = _SplitRecorder(sample_values, record_every)
+    units = dict(stress="Pa", sand_stress="Pa", wire_stress="Pa", height="m", volume="m^3",
+                 radius="m", time="s", step="-")
+    hist = history_writer(history, rec, units, record_every, frames)
+    H0 = top_z
+    est_steps = iso_max_steps + int(eps_max / (rate * dt)) + 1
+    stages = Stages(model, state, [rec, hist], progress=progress, total=est_steps,
+                    desc="cylinder triaxial")
+    maps = {}
+    R0 = conf.radius
+    try:
+        # stage 1: isotropic
+        ok_count, iso_steps = 0, 0
+        while iso_steps < iso_max_steps:
+            if not stages.run(confine_every):
+                break
+            iso_steps += confine_every
+            # the pressure rises linearly over ramp_steps (a sudden p on a loose sample
+            # throws its outer grains in at metres per second)
+            p_now.value = conf.pressure = p * min(1.0, iso_steps / max(ramp_steps, 1))
+            # the spheres push the top wall up: compression positive
+            sigma_top = wall_forces(model, state, [top])[0, 2] / (math.pi * conf.radius ** 2)
+            conf.apply(model, state)
+            tot = stresses(model, state)[0]
+            pm = -np.trace(tot) / 3
+            ok = (p_now.value == p and abs(pm / p - 1) < iso_tol
+                  and abs(sigma_top / p - 1) < iso_tol)
+            ok_count = ok_count + 1 if ok else 0
+            if ok_count >= iso_hold:
+                break
+        iso_reached = ok_count >= iso_hold
+        # stage 2: triaxial
+        stage["value"] = 1
+        H0 = state.position[top, 2] - state.position[floor, 2]
+        x_ref["pos"] = state.position.copy()
+        R0 = conf.radius
+        model = stages.model = model.with_drive(top, velocity=(0.0, 0.0, -rate * H0))
+        n_load = int(math.ceil(eps_max / (rate * dt)))
+        targets = sorted(float(e) for e in torus_strains if e <= eps_max + 1e-12)
+        done = 0
+        while done < n_load and not stages.interrupted:
+            n = min(confine_every, n_load - done)
+            if not stages.run(n):
+                break
+            done += n
+            conf.apply(model, state)
+            H = state.position[top, 2] - state.position[floor, 2]
+            eps = 1 - H / H0
+            while targets and eps >= targets[0] and wire:
+                e = targets.pop(0)
+                maps[e] = toroidal_map(model, state, Cylinder(conf.radius, H), part="wire")
+    finally:
+        stages.close()
+        hist.close()
+    tri, iso = _split(rec, stage_of)
+    res = _result("cylinder_triaxial", tri, H0, history)
+    res.params = dict(scale=scale, pressure=p, wire=wire, wire_law=repr(law), axial_strain=eps_max,
+                      strain_rate=rate, inertial_number=I, loading_velocity=rate * H0, dt=dt,
+                      theta=theta, tol=tol, max_iter=max_iter, mu=mu, mu_wall=mu_wall,
+                      mu_wire=mu_wire, seed=seed, n_sand=int(sample.sand_radii.size),
+                      n_beads=sample.n_beads, d_mean=d_mean, iso_reached=iso_reached)
+    if len(res.time):
+        res.extra["radial_strain"] = tri["radius"] / R0 - 1          # extension positive
+    res.extra["isotropic"] = dict(time=iso.get("time"), mean_stress=_mean(iso.get("stress")),
+                                  axial_stress=_axial(iso.get("stress")), reached=iso_reached)
+    res.extra["torus_maps"] = maps
+    res.extra["height"], res.extra["radius"] = tri.get("height"), tri.get("radius")
+    if wire and len(res.time) >= 5:
+        try:
+            res.extra["H"] = macro_stiffness(res.axial_strain, res.wire_equivalent)
+        except ValueError as e:
+            res.extra["H"] = None
+            res.extra["H_error"] = str(e)
+    return finish(res, stages, max_nonconverged)
+
+
+def model_mass(sample, density=2650.0):
+    """Mass of the sample's sand [kg]."""
+    return float(density * 4 / 3 * np.pi * (sample.sand_radii ** 3).sum())
+
+
+def _weber(model, state, part, V):
+    """Weber sum (Eq. 18) of the whole sample with volume V (tension positive)."""
+    s = weber_stress(model, state, part=part)
+    return s.tensor * s.volume / V
+
+
+def _mean(stress):
+    if stress is None or len(stress) == 0:
+        return np.zeros(0)
+    return -np.trace(np.asarray(stress), axis1=1, axis2=2) / 3
+
+
+def _axial(stress):
+    if stress is None or len(stress) == 0:
+        return np.zeros(0)
+    return -np.asarray(stress)[:, 2, 2]
+
+
+class _SplitRecorder(Recorder):
+    """A recorder of one function returning a dict of values."""
+
+    def __init__(self, fn, every):
+        super().__init__({}, every)
+        self.fn = fn
+        self.rows = {}
+        self.fns = {k: None for k in ("stress", "sand_stress", "wire_stress", "height",
+                                      "volume", "radius", "time", "step")}
+
+    def write(self, model, state):
+        v = self.fn(model, state)
+        for k, x in v.items():
+            self.last[k] = x
+            self.rows.setdefault(k, []).append(x)
+
+
+def _split(rec, stage_of):
+    st = np.asarray(stage_of)
+    tri = {k: np.asarray(v)[st == 1] for k, v in rec.rows.items()}
+    iso = {k: np.asarray(v)[st == 0] for k, v in rec.rows.items()}
+    return tri, iso
+
+
+def _result(name, tri, H0, history):
+    stress = tri.get("stress", np.zeros((0, 3, 3)))
+    n = len(stress)
+    if n == 0:
+        z = np.zeros(0)
+        return TestResult(name, z, z.astype(int), z, z, z, z, np.zeros((0, 3, 3)),
+                          np.zeros((0, 3, 3)), np.zeros((0, 3, 3)), z, os.path.abspath(history))
+    V = tri["volume"]
+    sig_a = -stress[:, 2, 2]
+    sig_r = -(stress[:, 0, 0] + stress[:, 1, 1]) / 2
+    wire_s = tri["wire_stress"]
+    return TestResult(
+        name=name, time=tri["time"], step=tri["step"].astype(int),
+        axial_strain=1 - tri["height"] / H0, volumetric_strain=1 - V / V[0],
+        deviator=sig_a - sig_r, mean_stress=-np.trace(stress, axis1=1, axis2=2) / 3,
+        stress=stress, sand_stress=tri["sand_stress"], wire_stress=wire_s,
+        wire_equivalent=np.array([equivalent_stress(s) for s in wire_s]),
+        history=os.path.abspath(history))
+
+
+def box_triaxial(scale: float = 0.05, *, pressure: float = 15e3, wire: bool = True,
+                 wire_law=None, bead_radius: float | None = None, axial_strain: float = 0.05,
+                 strain_rate: float | None = None, target_I: float = 5e-4,
+                 allow_dynamic: bool = False, dt: float = 5e-5, theta: float = 0.5,
+                 tol: float = 3e-4, max_iter: int = 1000, relax: float = 1.0, mu: float = 0.5,
+                 mu_wall: float = 0.0,
+                 mu_wire: float = 0.3, wall_mass: float | None = None, iso_tol: float = 0.02,
+                 iso_hold: int = 5, iso_max_steps: int = 4000, check_every: int = 10,
+                 ramp_steps: int = 400,
+                 record_every: int = 10, frames: int = 100, max_nonconverged: float = 0.25,
+                 history: str = "out/box_triaxial.h5", seed: int = 0,
+                 progress: bool = True) -> TestResult:
+    """The box triaxial test of §3.2 (Fig. 11-12).
+
+    The sample is :func:`engine.prep.box_sample` (a 16 mm cube, 6 500 grains + a wire at
+    200 km·m⁻³ at ``scale`` = 1; ``bead_radius`` r_w for Fig. 12) on a fixed floor, with
+    four side walls under ``pressure`` (paper: about 15 kPa; pressure drives whose area
+    follows the sample) and a top wall servo-controlled to the same stress, then moved down
+    at a constant velocity.  The side walls are frictionless by default (``mu_wall``).
+
+    ``extra`` holds the wall stresses (compression positive: x−, x+, y−, y+, top) per
+    record, the wire Weber stress of the upper and lower halves with principal values and
+    directions (Fig. 11), and the best-fit strains (Eq. 19) of the sand, the wire and all
+    the particles (Fig. 12).
+    """
+    scale = check_scale(scale)
+    p = _common_checks(pressure, max_nonconverged, target_I, record_every)
+    eps_max = check_positive("axial_strain", axial_strain, "[-]")
+    law = _wire_law(wire_law) if wire else None
+    sample = box_sample(scale, wire=wire, bead_radius=bead_radius, seed=seed)
+    box = sample.container
+    lo, hi = np.array(box.lo), np.array(box.hi)
+    sc = Scene(gravity=(0.0, 0.0, -G))
+    sand, beads = sample.add_to(sc, wire_law=law) if wire else (sample.add_to(sc)[0], [])
+    bead_ids = np.concatenate(beads) if beads else np.zeros(0, np.int64)
+    top_z = sample.height
+    d_mean = 2 * float(sample.sand_radii.mean())
+    rate, I = choose_rate(strain_rate, p, d_mean, 2650.0, target_I=target_I,
+                          allow_dynamic=allow_dynamic)
+    m_sample = model_mass(sample)
+    wall_mass = 0.2 * m_sample if wall_mass is None else check_positive("wall_mass", wall_mass, "[kg]")
+    floor = sc.add_plane(point=(0, 0, lo[2]), normal=(0, 0, 1), group="wall")
+    p_now = _Pressure()
+    top = sc.add_plane(point=(0, 0, lo[2] + top_z), normal=(0, 0, -1), group="wall")
+    sides = [sc.add_plane(point=pt, normal=n, group="wall") for pt, n in (
+        ((lo[0], 0, 0), (1, 0, 0)), ((hi[0], 0, 0), (-1, 0, 0)),
+        ((0, lo[1], 0), (0, 1, 0)), ((0, hi[1], 0), (0, -1, 0)))]
+
+    def side_area(k):
+        def area(model, state):
+            H = state.position[top, 2] - state.position[floor, 2]
+            other = (sides[2], sides[3]) if k < 2 else (sides[0], sides[1])
+            ax = 1 if k < 2 else 0
+            w = state.position[other[1], ax] - state.position[other[0], ax]
+            return H * w
+        return area
+
+    for k, b in enumerate(sides):
+        sc.drive(b, pressure=p_now, mass=wall_mass, area=side_area(k))
+
+    def top_area(model, state):
+        return ((state.position[sides[1], 0] - state.position[sides[0], 0])
+                * (state.position[sides[3], 1] - state.position[sides[2], 1]))
+
+    sc.drive(top, pressure=p_now, mass=wall_mass, area=top_area)
+    sc.fix(floor)
+    _laws_for(sc, mu, mu_wall, mu_wire, wire)
+    model, state = sc.compile(dt=dt, theta=theta, tol=tol, max_iter=max_iter, relax=relax)
+    stage = {"value": 0}
+    stage_of = []
+    walls = np.array([*sides, top])
+
+    def dims(state):
+        x = state.position
+        return (x[sides[1], 0] - x[sides[0], 0], x[sides[3], 1] - x[sides[2], 1],
+                x[top, 2] - x[floor, 2])
+
+    def wall_sigma(model, state):
+        Lx, Ly, H = dims(state)
+        f = wall_forces(model, state, walls)
+        areas = np.array([Ly * H, Ly * H, Lx * H, Lx * H, Lx * Ly])
+        normals = np.array([model.body_axis[b] for b in walls])
+        # the spheres push each wall against its normal: compression positive
+        return -np.einsum("ka,ka->k", f, normals) / areas
+
+    def sample_values(model, state):
+        Lx, Ly, H = dims(state)
+        V = Lx * Ly * H
+        sand_s = _weber(model, state, "sand", V)
+        wire_s = _weber(model, state, "wire", V) if model.n_links else np.zeros((3, 3))
+        zmid = state.position[floor, 2] + 0.5 * H
+        x0, y0 = state.position[sides[0], 0], state.position[sides[2], 1]
+        halves = []
+        for zl, zh in ((zmid, zmid + 0.5 * H), (zmid - 0.5 * H, zmid)):
+            reg = Box((x0, y0, zl), (x0 + Lx, y0 + Ly, zh))
+            try:
+                halves.append(weber_stress(model, state, region=reg, part="wire").tensor
+                              if model.n_links else np.zeros((3, 3)))
+            except ValueError:
+                halves.append(np.full((3, 3), np.nan))
+        stage_of.append(stage["value"])
+        return dict(stress=sand_s + wire_s, sand_stress=sand_s, wire_stress=wire_s,
+                    wire_stress_upper=halves[0], wire_stress_lower=halves[1],
+                    wall_stress=wall_sigma(model, state), height=H, volume=V,
+                    radius=0.0, time=state.time, step=state.step, position=None)
+
+    rec = _SplitRecorder(lambda m, s: {k: v for k, v in sample_values(m, s).items()
+                                       if k != "position"}, record_every)
+    rec.fns = {k: None for k in ("stress", "sand_stress", "wire_stress", "wire_stress_upper",
+                                 "wire_stress_lower", "wall_stress", "height", "volume",
+                                 "radius", "time", "step")}
+    units = dict(stress="Pa", sand_stress="Pa", wire_stress="Pa", wire_stress_upper="Pa",
+                 wire_stress_lower="Pa", wall_stress="Pa", height="m", volume="m^3",
+                 radius="m", time="s", step="-")
+    hist = history_writer(history, rec, units, record_every, frames)
+    est_steps = iso_max_steps + int(eps_max / (rate * dt)) + 1
+    stages = Stages(model, state, [rec, hist], progress=progress, total=est_steps,
+                    desc="box triaxial")
+    strains = {}
+    H0 = top_z
+    try:
+        ok_count, iso_steps = 0, 0
+        while iso_steps < iso_max_steps:
+            if not stages.run(check_every):
+                break
+            iso_steps += check_every
+            p_now.value = p * min(1.0, iso_steps / max(ramp_steps, 1))
+            ws = wall_sigma(model, state)
+            Lx, Ly, H = dims(state)
+            pm = -np.trace(_weber(model, state, "all", Lx * Ly * H)) / 3
+            ok = (p_now.value == p and abs(pm / p - 1) < iso_tol
+                  and np.all(np.abs(ws / p - 1) < iso_tol))
+            ok_count = ok_count + 1 if ok else 0
+            if ok_count >= iso_hold:
+                break
+        iso_reached = ok_count >= iso_hold
+        stage["value"] = 1
+        H0 = dims(state)[2]
+        ref = state.position.copy()
+        model = stages.model = model.with_drive(top, velocity=(0.0, 0.0, -rate * H0))
+        n_load = int(math.ceil(eps_max / (rate * dt)))
+        if not stages.interrupted:
+            stages.run(n_load)
+        sand_ids = np.asarray(sand)
+        for name, sel in (("sand", sand_ids), ("wire", bead_ids),
+                          ("all", np.concatenate([sand_ids, bead_ids]))):
+            if sel.size >= 4:
+                strains[name] = best_fit_strain(ref, state.position, sel)
+    finally:
+        stages.close()
+        hist.close()
+    tri, iso = _split(rec, stage_of)
+    res = _result("box_triaxial", tri, H0, history)
+    res.params = dict(scale=scale, pressure=p, wire=wire, wire_law=repr(law),
+                      bead_radius=sample.bead_radius, axial_strain=eps_max, strain_rate=rate,
+                      inertial_number=I, loading_velocity=rate * H0, dt=dt, theta=theta,
+                      tol=tol, max_iter=max_iter, mu=mu, mu_wall=mu_wall, mu_wire=mu_wire,
+                      wall_mass=wall_mass, seed=seed, n_sand=int(sample.sand_radii.size),
+                      n_beads=sample.n_beads, d_mean=d_mean, iso_reached=iso_reached)
+    res.extra["isotropic"] = dict(time=iso.get("time"), mean_stress=_mean(iso.get("stress")),
+                                  axial_stress=_axial(iso.get("stress")),
+                                  wall_stress=iso.get("wall_stress"), reached=iso_reached)
+    res.extra["wall_stress"] = tri.get("wall_stress")
+    for half in ("upper", "lower"):
+        t = tri.get(f"wire_stress_{half}")
+        res.extra[f"wire_stress_{half}"] = t
+        if t is not None and len(t) and np.all(np.isfinite(t[-1])):
+            w, v = principal(t[-1])
+            res.extra[f"wire_principal_{half}"] = (w, v)
+    res.extra["best_fit_strain"] = strains
+    return finish(res, stages, max_nonconverged)

@@ -54,8 +54,8 @@ class Confinement:
 
     The lateral surface is cut into angular sectors × height layers; in each cell the
     particle reaching farthest from the axis (‖x − axis‖ + r) is a surface particle and gets
-    the force p · A · (−e_r), A = Δθ ρ Δz the cell's share of the lateral surface at that
-    particle's outer radius ρ.  Cells holding no particle centre (a few per cent with the
+    the force p · A · (−e_r), A = Δθ R Δz the cell's share of the lateral surface, R the
+    median outer radius ρ = ‖x − axis‖ + r of the surface particles.  Cells holding no particle centre (a few per cent with the
     default cell size) hand their share to the others: the areas are scaled by
     (number of cells) / (number of filled cells), so the total force is p × 2π R̄ H.  :meth:`apply` writes these forces into ``state.load`` (and
     clears the previous ones); call it every few steps as the sample deforms.
@@ -102,11 +102,20 @@ class Confinement:
         sec = ((theta + np.pi) / (2 * np.pi) * n_sec).astype(np.int64) % n_sec
         lay = np.clip(((z - z0) / (z1 - z0) * n_lay).astype(np.int64), 0, n_lay - 1)
         cell_id = sec * n_lay + lay
-        # the farthest particle of each cell
-        order = np.lexsort((rho, cell_id))
-        last = np.r_[cell_id[order][1:] != cell_id[order][:-1], True]
-        top = order[last]
-        area = (2 * np.pi / n_sec) * rho[top] * ((z1 - z0) / n_lay) * (n_sec * n_lay / top.size)
+        # the farthest particle of each cell, leaving out particles that left the sample
+        # (farther than 2 mean diameters beyond the median surface): loading one of those
+        # inwards throws it through the sample (seen on a 190-grain sample)
+        top = self._outermost(rho, cell_id)
+        R_med = float(np.median(rho[top]))
+        keep = rho <= R_med + 4.0 * rad.mean()
+        top = np.flatnonzero(keep)[self._outermost(rho[keep], cell_id[keep])]
+        # every cell's share is taken at the median outer radius of the surface particles,
+        # not at each particle's own ρ: with its own ρ, a grain thrown outwards got a larger
+        # area, hence a larger inward force, was thrown through the sample and out the other
+        # side, and the run blew up (seen on a 190-grain sample)
+        R_surf = float(np.median(rho[top]))
+        area = np.full(top.size, (2 * np.pi / n_sec) * R_surf * ((z1 - z0) / n_lay)
+                       * (n_sec * n_lay / top.size))
         f = self.pressure * area
         state.load[self.ids[self.surface]] = 0.0
         self.surface = top
@@ -115,9 +124,15 @@ class Confinement:
         self._force = f
         self._er = er
         self.area = float(area.sum())
-        self.radius = float(np.average(rho[top], weights=area))   # outer envelope [m]
+        self.radius = R_surf                                   # outer envelope [m]
         self.height = float(z1 - z0)
         return self.area
+
+    @staticmethod
+    def _outermost(rho, cell_id):
+        order = np.lexsort((rho, cell_id))
+        last = np.r_[cell_id[order][1:] != cell_id[order][:-1], True]
+        return order[last]
 
     def membrane_stress(self, model) -> np.ndarray:
         """Σ_surface (−r e_r) ⊗ f over the loaded particles [N·m] (tension positive once

@@ -9,7 +9,8 @@ from pathlib import Path
 
 import numpy as np
 
-__all__ = ["deposit_figure"]
+__all__ = ["deposit_figure", "stress_strain_figure", "stiffness_figure", "slope_figure",
+           "directions_figure", "convergence_figure", "tortuosity_figure"]
 
 
 def _new_figure(nrows: int, size=(7.0, 7.5)):
@@ -72,3 +73,136 @@ def deposit_figure(history, path, *, tol: float | None = None, title: str | None
     path.parent.mkdir(parents=True, exist_ok=True)
     fig.savefig(path)
     return path
+
+
+def _axes(nrows=1, ncols=1, size=(6.4, 4.4)):
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+    from matplotlib.figure import Figure
+
+    fig = Figure(figsize=size, dpi=110, layout="constrained")
+    FigureCanvasAgg(fig)
+    return fig, fig.subplots(nrows, ncols, squeeze=False)
+
+
+def _save(fig, path) -> Path:
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fig.savefig(path)
+    return path
+
+
+def stress_strain_figure(results, path, *, labels=None, title=None) -> Path:
+    """Deviator q [kPa] and volumetric strain against axial strain for one or several
+    :class:`engine.experiments.TestResult` (Fig. 14 style: sand, elastic and rigid wire),
+    with the wire part's equivalent stress (Fig. 15) in a third panel."""
+    results = list(results) if isinstance(results, (list, tuple)) else [results]
+    labels = labels or [r.params.get("wire_law", r.name) if r.params.get("wire") else "sand"
+                        for r in results]
+    fig, ax = _axes(3, 1, size=(6.4, 8.0))
+    for r, lab in zip(results, labels):
+        e = 100 * np.asarray(r.axial_strain)
+        ax[0, 0].plot(e, np.asarray(r.deviator) / 1e3, label=lab)
+        ax[1, 0].plot(e, 100 * np.asarray(r.volumetric_strain), label=lab)
+        ax[2, 0].plot(e, np.asarray(r.wire_equivalent), label=lab)
+    ax[0, 0].set_ylabel("deviator q = σ₁ − σ₃ [kPa]")
+    ax[1, 0].set_ylabel("volumetric strain [%]\n(contraction > 0)")
+    ax[2, 0].set_ylabel("wire equivalent stress\n‖dev σ_w‖ [Pa]")
+    ax[2, 0].set_xlabel("axial strain [%] (compression > 0)")
+    for a in ax[:, 0]:
+        a.grid(alpha=0.3)
+    ax[0, 0].legend(fontsize=8)
+    if title:
+        ax[0, 0].set_title(title)
+    return _save(fig, path)
+
+
+def stiffness_figure(k, H, path, *, H_rigid=None) -> Path:
+    """Macro-stiffness H [Pa] against the wire stiffness k [N] (Table 2), log k axis; the
+    rigid wire's H∞ as a horizontal line."""
+    fig, ax = _axes()
+    a = ax[0, 0]
+    a.semilogx(k, H, "o-", label="elastic wire")
+    if H_rigid is not None:
+        a.axhline(H_rigid, color="k", ls="--", label="rigid wire (H∞)")
+    a.set_xlabel("wire stiffness k [N]")
+    a.set_ylabel("macro-stiffness H [Pa]")
+    a.grid(alpha=0.3, which="both")
+    a.legend(fontsize=8)
+    return _save(fig, path)
+
+
+def slope_figure(profiles, path, *, labels=None) -> Path:
+    """Heap shape h(r) [mm] and floor pressure p(r) [Pa] with their regressions (Fig. 10)
+    for one or several :class:`engine.analysis.SlopeProfile`."""
+    profiles = list(profiles) if isinstance(profiles, (list, tuple)) else [profiles]
+    labels = labels or [f"#{k}" for k in range(len(profiles))]
+    fig, ax = _axes(2, 1, size=(6.4, 6.4))
+    for p, lab in zip(profiles, labels):
+        r = 1e3 * p.r
+        line, = ax[0, 0].plot(r, 1e3 * p.height, "o", ms=3, label=f"{lab} ({p.max_slope_deg:.1f}°)")
+        rs = np.linspace(p.r.min(), p.r.max(), 200)
+        ax[0, 0].plot(1e3 * rs, 1e3 * p.height_fit(rs), color=line.get_color())
+        ax[1, 0].plot(r, p.pressure, "o", ms=3, color=line.get_color(), label=lab)
+        ax[1, 0].plot(1e3 * rs, p.pressure_fit(rs), color=line.get_color())
+    ax[0, 0].set_ylabel("height h [mm]")
+    ax[1, 0].set_ylabel("floor pressure p [Pa]")
+    ax[1, 0].set_xlabel("radius r [mm]")
+    for a in ax[:, 0]:
+        a.grid(alpha=0.3)
+    ax[0, 0].legend(fontsize=8)
+    return _save(fig, path)
+
+
+def directions_figure(before, after, path) -> Path:
+    """Rose diagrams of the wire element directions in the (x,y), (x,z), (y,z) planes,
+    before and after (Fig. 8-9); ``before``/``after`` are {plane: (edges, weights)} as in
+    :func:`engine.analysis.direction_histogram`."""
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+    from matplotlib.figure import Figure
+
+    fig = Figure(figsize=(9.0, 6.0), dpi=110, layout="constrained")
+    FigureCanvasAgg(fig)
+    for row, (name, h) in enumerate((("before", before), ("after", after))):
+        for col, plane in enumerate(("xy", "xz", "yz")):
+            a = fig.add_subplot(2, 3, 3 * row + col + 1, projection="polar")
+            edges, w = h[plane]
+            w = np.asarray(w, float) / max(float(np.sum(w)), 1e-300)
+            width = np.diff(edges)
+            # undirected: draw each bin and its opposite
+            a.bar(np.r_[edges[:-1], edges[:-1] + np.pi], np.r_[w, w], width=np.r_[width, width],
+                  align="edge", color="C0" if row == 0 else "C3", alpha=0.8)
+            a.set_title(f"{name}: ({plane[0]},{plane[1]})", fontsize=9)
+            a.set_yticklabels([])
+    return _save(fig, path)
+
+
+def convergence_figure(iterations, residual, path, *, tol=None, max_iter=None) -> Path:
+    """NLGS sweeps and final residual per step (a step at max_iter did not converge)."""
+    fig, ax = _axes(2, 1, size=(6.4, 5.0))
+    it = np.asarray(iterations)
+    ax[0, 0].plot(it, lw=0.8)
+    if max_iter:
+        ax[0, 0].axhline(max_iter, color="r", ls="--", lw=0.8, label="max_iter")
+        ax[0, 0].legend(fontsize=8)
+    ax[0, 0].set_ylabel("NLGS sweeps")
+    ax[1, 0].semilogy(np.asarray(residual), lw=0.8)
+    if tol:
+        ax[1, 0].axhline(tol, color="r", ls="--", lw=0.8, label="tol")
+        ax[1, 0].legend(fontsize=8)
+    ax[1, 0].set_ylabel("residual (Quad norm)")
+    ax[1, 0].set_xlabel("record")
+    for a in ax[:, 0]:
+        a.grid(alpha=0.3)
+    return _save(fig, path)
+
+
+def tortuosity_figure(labels, before, after, path) -> Path:
+    """Tortuosity ξ [1/m] before and after a deposit for several samples (Fig. 7)."""
+    fig, ax = _axes()
+    x = np.arange(len(labels))
+    ax[0, 0].bar(x - 0.2, before, 0.4, label="before")
+    ax[0, 0].bar(x + 0.2, after, 0.4, label="after")
+    ax[0, 0].set_xticks(x, labels)
+    ax[0, 0].set_ylabel("tortuosity ξ [1/m]")
+    ax[0, 0].legend(fontsize=8)
+    return _save(fig, path)

@@ -98,6 +98,7 @@ def test_slope_deposit(tmp_path):
     (cylinder_triaxial, dict(strain_rate=1e4), "inertial number"),
     (slope_deposit, dict(scale=-1.0), "scale"),
     (box_triaxial, dict(max_nonconverged=2.0), "max_nonconverged"),
+    (cylinder_triaxial, dict(scale=0.01), "diameters across"),
 ])
 def test_bad_input(fn, kw, field, tmp_path):
     with pytest.raises(ValueError, match=field):

@@ -1,0 +1,73 @@
+"""The ``nscd`` command: demo end to end, config validation, info/render/export."""
+import numpy as np
+import pytest
+
+from workbench import cli
+
+
+@pytest.fixture(scope="module")
+def demo(tmp_path_factory):
+    out = tmp_path_factory.mktemp("demo")
+    assert cli.main(["demo", "--out", str(out), "--scale", "0.05", "--strain", "0.02"]) == 0
+    return out
+
+
+def test_demo_writes_what_it_promises(demo):
+    from engine import io
+    from workbench.series import read_pvd
+
+    for name in ("run.h5", "stress_strain.png", "convergence.png", "beads.png", "wire.png",
+                 "forces.png", "torus.png"):
+        assert (demo / name).stat().st_size > 1000, name
+    h = io.read_history(demo / "run.h5")
+    frames = read_pvd(demo / "series" / "cylinder.pvd")
+    # one PVD time per history frame, with the history's frame times
+    times = sorted({f["timestep"] for f in frames})
+    np.testing.assert_array_equal(times, h.frame_time)
+
+
+def test_info_render_export(demo, tmp_path, capsys):
+    assert cli.main(["info", str(demo / "run.h5")]) == 0
+    text = capsys.readouterr().out
+    assert "history" in text and "frames" in text and "stress" in text
+    assert cli.main(["render", str(demo / "run.h5"), "--frame", "0", "--preset", "forces",
+                     "--out", str(tmp_path / "f.png")]) == 0
+    assert (tmp_path / "f.png").stat().st_size > 1000
+    assert cli.main(["export", str(demo / "run.h5"), str(tmp_path / "s")]) == 0
+    assert (tmp_path / "s" / "frame.pvd").exists()
+
+
+@pytest.mark.parametrize("toml, expected", [
+    ('test = "cylinder_triaxial"\nscale = 0.05\ncolour = "red"\n', "colour"),
+    ('test = "cylinder_triaxial"\n[parameters]\npressure = -5.0\n',
+     "parameters.pressure: Input should be greater than 0"),
+    ('test = "box_triaxial"\n[parameters]\naxial_strain = "a lot"\n', "parameters.axial_strain"),
+    ('test = "triaxial"\n', "test"),
+    ('test = "slope_deposit"\nscale = 0\n', "scale: Input should be greater than 0"),
+    ('test = "slope_deposit"\n[wire]\nlaw = "rope"\n', "wire.law"),
+    ('test = = 1', "not valid TOML"),
+])
+def test_bad_config_gives_one_clear_message(tmp_path, capsys, toml, expected):
+    p = tmp_path / "c.toml"
+    p.write_text(toml)
+    assert cli.main(["run", str(p), "--out", str(tmp_path / "o")]) == 2
+    err = capsys.readouterr().err
+    assert expected in err
+    assert "Traceback" not in err
+    assert not (tmp_path / "o").exists()            # nothing ran
+
+
+def test_good_config_runs(tmp_path):
+    p = tmp_path / "c.toml"
+    p.write_text('test = "box_triaxial"\nscale = 0.02\n[parameters]\naxial_strain = 0.004\n'
+                 'iso_max_steps = 400\n[wire]\nlaw = "rigid"\n')
+    assert cli.main(["run", str(p), "--out", str(tmp_path / "o")]) == 0
+    assert (tmp_path / "o" / "run.h5").exists() and (tmp_path / "o" / "stress_strain.png").exists()
+
+
+def test_help_on_every_command(capsys):
+    for cmd in ([], ["demo"], ["run"], ["render"], ["export"], ["info"]):
+        with pytest.raises(SystemExit) as e:
+            cli.main([*cmd, "--help"])
+        assert e.value.code == 0
+        assert "usage: nscd" in capsys.readouterr().out

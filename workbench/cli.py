@@ -1,0 +1,352 @@
+"""The ``nscd`` command.
+
+::
+
+    nscd demo [--out DIR] [--scale S]        a small TexSol cylinder triaxial test -> DIR/run.h5,
+                                             PNG snapshots and figures, a ParaView series
+    nscd run CONFIG.toml [--out DIR]         a test from a validated TOML file
+    nscd render RUN.h5 [--frame N] [--preset beads|wire|forces|torus] [--camera ...] [--out PNG]
+    nscd export RUN.h5 OUTDIR                every frame of a history as VTU + a PVD
+    nscd info RUN.h5                         what a checkpoint or history holds
+
+A TOML file for ``nscd run``::
+
+    test = "cylinder_triaxial"        # or "box_triaxial", "slope_deposit"
+    scale = 0.05
+    seed = 0
+    [parameters]                       # the test function's keyword arguments
+    pressure = 15e3
+    axial_strain = 0.05
+    [wire]
+    law = "elastic"                    # "elastic", "rigid" or "none" (sand only)
+    stiffness = 1.0                    # [N], elastic only
+
+Unknown keys, wrong types and values out of range are reported together, each with its
+field and the allowed range; nothing runs then.
+"""
+from __future__ import annotations
+
+import argparse
+import sys
+from pathlib import Path
+from typing import Literal, Optional
+
+from pydantic import BaseModel, ConfigDict, Field, ValidationError
+
+PRESETS = ("beads", "wire", "forces", "torus")
+
+
+# ---------------------------------------------------------------- configuration files
+
+class _Strict(BaseModel):
+    model_config = ConfigDict(extra="forbid")
+
+
+class WireConfig(_Strict):
+    law: Literal["elastic", "rigid", "none"] = "elastic"
+    stiffness: float = Field(1.0, gt=0, description="[N], elastic wire only")
+
+
+class SolverParams(_Strict):
+    dt: float = Field(5e-5, gt=0, le=1e-2, description="time step [s]")
+    theta: float = Field(0.5, ge=0.5, le=1.0)
+    tol: float = Field(3e-4, gt=0, lt=1)
+    max_iter: int = Field(1000, ge=1)
+    mu: float = Field(0.5, ge=0, le=10)
+    mu_wire: float = Field(0.3, ge=0, le=10)
+    max_nonconverged: float = Field(0.25, ge=0, le=1)
+    record_every: int = Field(10, ge=1)
+    frames: int = Field(100, ge=0)
+
+
+class TriaxialParams(SolverParams):
+    pressure: float = Field(15e3, gt=0, description="[Pa]")
+    axial_strain: float = Field(0.05, gt=0, le=0.5)
+    strain_rate: Optional[float] = Field(None, gt=0, description="[1/s]")
+    target_I: float = Field(5e-4, gt=0, le=0.1)
+    allow_dynamic: bool = False
+    mu_wall: Optional[float] = Field(None, ge=0, le=10)
+    iso_max_steps: int = Field(4000, ge=1)
+
+
+class CylinderParams(TriaxialParams):
+    torus_strains: list[float] = [0.02, 0.05, 0.1]
+
+
+class BoxParams(TriaxialParams):
+    bead_radius: Optional[float] = Field(None, gt=0, description="[m]")
+
+
+class SlopeParams(SolverParams):
+    tol: float = Field(1e-4, gt=0, lt=1)
+    wire_density: Optional[float] = Field(None, ge=0, description="[m/m³]")
+    steps: int = Field(4000, ge=1)
+    ke_fraction: float = Field(1e-4, gt=0, lt=1)
+    rubber_radius: float = Field(0.3e-3, gt=0)
+    floor_extent: float = Field(5.0, gt=0)
+    mu_floor: float = Field(0.8, ge=0, le=10)
+    record_every: int = Field(20, ge=1)
+    frames: int = Field(200, ge=0)
+
+
+_PARAMS = {"cylinder_triaxial": CylinderParams, "box_triaxial": BoxParams,
+           "slope_deposit": SlopeParams}
+
+
+class RunConfig(_Strict):
+    test: Literal["cylinder_triaxial", "box_triaxial", "slope_deposit"]
+    scale: float = Field(0.05, gt=0, le=1.0)
+    seed: int = Field(0, ge=0)
+    parameters: dict = {}
+    wire: WireConfig = WireConfig()
+
+
+class ConfigError(ValueError):
+    pass
+
+
+def _format_errors(e: ValidationError, prefix="") -> str:
+    lines = []
+    for err in e.errors():
+        loc = ".".join(str(x) for x in err["loc"])
+        got = err.get("input")
+        lines.append(f"  {prefix}{loc}: {err['msg']} (got {got!r})")
+    return "\n".join(lines)
+
+
+def load_config(path) -> tuple[RunConfig, BaseModel]:
+    """Read and validate a TOML run file; ConfigError lists every problem."""
+    import tomllib
+
+    try:
+        with open(path, "rb") as f:
+            raw = tomllib.load(f)
+    except FileNotFoundError:
+        raise ConfigError(f"{path}: no such file")
+    except tomllib.TOMLDecodeError as e:
+        raise ConfigError(f"{path}: not valid TOML: {e}")
+    problems = []
+    try:
+        cfg = RunConfig(**raw)
+    except ValidationError as e:
+        raise ConfigError(f"{path}: {e.error_count()} problem(s)\n" + _format_errors(e))
+    try:
+        params = _PARAMS[cfg.test](**cfg.parameters)
+    except ValidationError as e:
+        problems.append(_format_errors(e, "parameters."))
+    if problems:
+        raise ConfigError(f"{path}: problem(s) in [parameters] of {cfg.test}\n" + "\n".join(problems))
+    return cfg, params
+
+
+def run_config(cfg: RunConfig, params: BaseModel, out: Path, progress=True):
+    from engine import laws
+    from engine import experiments
+
+    fn = getattr(experiments, cfg.test)
+    kw = params.model_dump(exclude_none=True)
+    if cfg.wire.law == "none":
+        kw["wire"] = False
+    else:
+        kw["wire"] = True
+        kw["wire_law"] = (laws.RigidWire() if cfg.wire.law == "rigid"
+                          else laws.ElasticWire(stiffness=cfg.wire.stiffness))
+    out.mkdir(parents=True, exist_ok=True)
+    return fn(cfg.scale, seed=cfg.seed, history=str(out / "run.h5"), progress=progress, **kw)
+
+
+# ---------------------------------------------------------------- outputs of a run
+
+def export_series(history, outdir, *, name="frame", progress=True) -> Path:
+    """Every frame of a history file as VTU + a PVD collection; returns the PVD path."""
+    from engine import io
+    from .series import SeriesWriter
+
+    data = io.read_history(history, frames=False)
+    import h5py  # noqa: F401  (read_history already imported it)
+    n = _n_frames(history)
+    if n == 0:
+        raise ValueError(f"{history}: the history holds no frame (run with frames > 0)")
+    w = SeriesWriter(outdir, every=1, name=name)
+    it = range(n)
+    if progress:
+        from tqdm.auto import tqdm
+        it = tqdm(it, unit="frame", desc="export")
+    for k in it:
+        model, state = io.load(history, frame=k)
+        w.write(model, state)
+    w.flush()
+    del data
+    return w.pvd_path
+
+
+def _n_frames(path) -> int:
+    from engine import io
+    return io.read_history(path, frames=True).n_frames
+
+
+def sample_cylinder(model, state):
+    """The vertical cylinder about the z axis holding every sphere (for the torus preset
+    when the scene has no cylinder wall: a confined cylindrical sample)."""
+    import numpy as np
+
+    from engine.prep import Cylinder
+
+    ids = model.sphere_ids
+    x, r = state.position[ids], model.body_radius[ids]
+    z0 = float((x[:, 2] - r).min())
+    return Cylinder(float((np.hypot(x[:, 0], x[:, 1]) + r).max()),
+                    float((x[:, 2] + r).max()) - z0, center=(0.0, 0.0, z0))
+
+
+def render_frame(history, out, *, frame=-1, preset="beads", camera="iso") -> Path:
+    from engine import io
+    from engine.model import CYLINDER
+    from .render import snapshot
+
+    model, state = io.load(history, frame=frame)
+    opts = {}
+    if preset == "torus" and not (model.body_kind == CYLINDER).any():
+        opts["cylinder"] = sample_cylinder(model, state)
+    return snapshot(model, state, out, preset=preset, camera=camera, **opts)
+
+
+def figures_of(result, out: Path) -> list[Path]:
+    """Standard figures of a TestResult (stress–strain, convergence)."""
+    from engine import io
+    from . import figures
+
+    paths = [figures.stress_strain_figure([result], out / "stress_strain.png",
+                                          title=result.name)]
+    h = io.read_history(result.history, frames=False)
+    paths.append(figures.convergence_figure(h.iterations, h.residual, out / "convergence.png",
+                                            tol=result.params.get("tol"),
+                                            max_iter=result.params.get("max_iter")))
+    return paths
+
+
+def info(path) -> str:
+    import h5py
+    import numpy as np
+
+    from engine import io
+
+    with h5py.File(path, "r", locking=False) as f:
+        content = str(f.attrs.get("content", "?"))
+        version = f.attrs.get("format_version", "?")
+    model = io.load_model(path)
+    lines = [f"{path}: nscd-workbench {content}, format version {version}",
+             f"  bodies {model.n_bodies} ({len(model.sphere_ids)} spheres, "
+             f"{len(model.wall_ids)} walls), links {model.n_links}, groups "
+             f"{', '.join(model.group_names)}",
+             f"  options: dt={model.options.dt:g} s, theta={model.options.theta}, "
+             f"tol={model.options.tol:g}, max_iter={model.options.max_iter}"]
+    if content == "history":
+        h = io.read_history(path, frames=True)
+        nc = int((~h.converged.astype(bool)).sum())
+        lines.append(f"  records {h.n_records} (steps {h.step[0]}..{h.step[-1]}, t = "
+                     f"{h.time[0]:.6g}..{h.time[-1]:.6g} s), frames {h.n_frames}")
+        lines.append(f"  NLGS: mean {np.mean(h.iterations):.0f} sweeps, {nc} recorded steps "
+                     f"not converged, max residual {np.max(h.residual):.3g}")
+        if h.extra:
+            lines.append("  extra records: " + ", ".join(
+                f"{k} {tuple(v.shape[1:])} [{h.units.get(k, '?')}]" for k, v in h.extra.items()))
+    else:
+        _, state = io.load(path)
+        lines.append(f"  state: step {state.step}, t = {state.time:.6g} s, "
+                     f"{len(state.contacts)} contacts")
+    return "\n".join(lines)
+
+
+# ---------------------------------------------------------------- the commands
+
+def cmd_demo(a) -> int:
+    from engine.experiments import cylinder_triaxial
+
+    out = Path(a.out)
+    out.mkdir(parents=True, exist_ok=True)
+    print(f"nscd demo: a TexSol cylinder triaxial test at scale {a.scale} -> {out}/")
+    res = cylinder_triaxial(a.scale, axial_strain=a.strain, history=str(out / "run.h5"),
+                            frames=50, progress=True)
+    print(res)
+    paths = figures_of(res, out)
+    for preset in PRESETS:
+        paths.append(render_frame(res.history, out / f"{preset}.png", preset=preset))
+    pvd = export_series(res.history, out / "series", name="cylinder")
+    print("wrote:\n  " + "\n  ".join(str(p) for p in [out / "run.h5", *paths, pvd]))
+    return 0
+
+
+def cmd_run(a) -> int:
+    try:
+        cfg, params = load_config(a.config)
+    except ConfigError as e:
+        print(f"nscd run: {e}", file=sys.stderr)
+        return 2
+    out = Path(a.out or Path("out") / Path(a.config).stem)
+    res = run_config(cfg, params, out)
+    print(res)
+    if cfg.test != "slope_deposit":
+        figures_of(res, out)
+    return 0
+
+
+def cmd_render(a) -> int:
+    out = a.out or str(Path(a.run).with_suffix("")) + f"_{a.preset}.png"
+    print(render_frame(a.run, out, frame=a.frame, preset=a.preset, camera=a.camera))
+    return 0
+
+
+def cmd_export(a) -> int:
+    print(export_series(a.run, a.outdir, name=a.name))
+    return 0
+
+
+def cmd_info(a) -> int:
+    print(info(a.run))
+    return 0
+
+
+def parser() -> argparse.ArgumentParser:
+    p = argparse.ArgumentParser(prog="nscd", description="nscd-workbench: NSCD of sand and "
+                                "wire (TexSol) — run the paper's tests, render and export runs.")
+    sub = p.add_subparsers(dest="command", required=True)
+    d = sub.add_parser("demo", help="a small TexSol cylinder triaxial: run.h5, PNGs, a ParaView series",
+                       description=cmd_demo.__doc__ or "Run the demo.")
+    d.add_argument("--out", default="out/demo", help="output directory (default out/demo)")
+    d.add_argument("--scale", type=float, default=0.05, help="sample scale (1 = paper)")
+    d.add_argument("--strain", type=float, default=0.05, help="final axial strain")
+    d.set_defaults(fn=cmd_demo)
+    r = sub.add_parser("run", help="run a test from a TOML configuration file")
+    r.add_argument("config", help="TOML file (see `python -m workbench.cli --help`)")
+    r.add_argument("--out", help="output directory (default out/<config stem>)")
+    r.set_defaults(fn=cmd_run)
+    g = sub.add_parser("render", help="render one frame of a run to PNG (off-screen)")
+    g.add_argument("run", help="history (.h5) or checkpoint")
+    g.add_argument("--frame", type=int, default=-1, help="frame index (default: last)")
+    g.add_argument("--preset", choices=PRESETS, default="beads")
+    g.add_argument("--camera", default="iso", help="iso, front, top, side")
+    g.add_argument("--out", help="PNG path")
+    g.set_defaults(fn=cmd_render)
+    e = sub.add_parser("export", help="export every frame of a history to a ParaView series")
+    e.add_argument("run")
+    e.add_argument("outdir")
+    e.add_argument("--name", default="frame", help="file stem")
+    e.set_defaults(fn=cmd_export)
+    i = sub.add_parser("info", help="summarise a checkpoint or history file")
+    i.add_argument("run")
+    i.set_defaults(fn=cmd_info)
+    return p
+
+
+def main(argv=None) -> int:
+    a = parser().parse_args(argv)
+    try:
+        return a.fn(a)
+    except (ValueError, FileNotFoundError) as e:
+        print(f"nscd {a.command}: {e}", file=sys.stderr)
+        return 2
+
+
+if __name__ == "__main__":
+    sys.exit(main())

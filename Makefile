@@ -4,7 +4,14 @@ VENV   := .venv
 PY     := $(VENV)/bin/python
 STAMP  := $(VENV)/.installed
 
-.PHONY: install test demo bench bench-peers clean
+# System packages (Debian/Ubuntu, installed with apt when missing; see `make sysdeps`):
+#  off-screen rendering: EGL + Mesa's llvmpipe software GL (OSMesa as the fallback), used by
+#  the VTK wheel when there is no display (workbench/render.py);
+#  ParaView's pvpython (tests/workbench/test_paraview.py reads every PVD with it).
+APT_RENDER   := libegl1 libegl-mesa0 libgl1-mesa-dri libosmesa6
+APT_PARAVIEW := paraview python3-paraview
+
+.PHONY: install sysdeps test demo bench bench-peers clean
 
 $(STAMP): pyproject.toml
 	$(PYTHON) -m venv $(VENV)
@@ -12,10 +19,31 @@ $(STAMP): pyproject.toml
 	$(PY) -m pip install --quiet -e '.[test]'
 	touch $(STAMP)
 
-install: $(STAMP)
+install: $(STAMP) sysdeps
+
+## make sysdeps: apt-get install the system packages above that are missing (sudo if not
+## root); a no-op when they are all there; a warning, not an error, without apt or rights.
+## A first ParaView install takes about 30 s with a warm apt cache (79 MB download, 108
+## packages with --no-install-recommends), a few minutes on a slow mirror.
+sysdeps:
+	@if ! command -v dpkg-query >/dev/null 2>&1 || ! command -v apt-get >/dev/null 2>&1; then \
+	  echo "sysdeps: no dpkg/apt here; install EGL or OSMesa (Mesa) and ParaView yourself" \
+	       "(the ParaView test skips without pvpython)"; exit 0; fi; \
+	missing=""; \
+	for p in $(APT_RENDER) $(APT_PARAVIEW); do \
+	  dpkg-query -W -f='$${Status}' $$p 2>/dev/null | grep -q "ok installed" || missing="$$missing $$p"; \
+	done; \
+	if [ -z "$$missing" ]; then exit 0; fi; \
+	if [ "$$(id -u)" = 0 ]; then SUDO=""; \
+	elif command -v sudo >/dev/null 2>&1 && sudo -n true 2>/dev/null; then SUDO="sudo -n"; \
+	else echo "sysdeps: missing$$missing and no root/sudo: apt-get install them yourself"; exit 0; fi; \
+	echo "sysdeps: apt-get install$$missing"; \
+	install="$$SUDO env DEBIAN_FRONTEND=noninteractive apt-get install -y -qq --no-install-recommends$$missing"; \
+	$$install >/dev/null || { $$SUDO apt-get update -qq && $$install >/dev/null; } || \
+	  echo "sysdeps: apt-get install failed; rendering or the ParaView test may not work"
 
 ## make test: the test suite (numba compilation included), two workers
-test: $(STAMP)
+test: $(STAMP) sysdeps
 	$(PY) -m pytest -n 2 -q tests
 
 ## make demo: the main job (gravity deposit; figures + ParaView series under out/demo)

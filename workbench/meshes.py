@@ -173,13 +173,21 @@ def wire_part(model, state) -> Part | None:
         })
 
 
-def contact_part(model, state) -> Part | None:
+def contact_part(model, state, *, empty: bool = False) -> Part | None:
     """Contacts of the last step as lines (see module doc); ``None`` when there are none
-    (or before the first step, when forces are undefined)."""
+    (or before the first step, when forces are undefined), or a part with no points and
+    no cells (but every array) when ``empty`` is true."""
     c = state.contacts
     k = len(c)
     if k == 0 or not state.last_dt:
-        return None
+        if not empty:
+            return None
+        z = np.zeros(0)
+        zi = np.zeros(0, np.int32)
+        return Part(points=np.zeros((0, 3)), cell_type="line", cells=np.zeros((0, 2), np.int64),
+                    cell_data={"normal_force": z, "tangential_force": z,
+                               "force": np.zeros((0, 3)), "kind": zi, "i": zi, "j": zi,
+                               "sub": zi, "wall": zi})
     wall = model.body_kind[c.j] != 0
     end = state.position[c.j].copy()
     end[wall] = c.point[wall]

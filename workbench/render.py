@@ -36,9 +36,11 @@ GL stack (checked by ``tests/workbench/test_render.py``).
 
 Headless: the plotter is always off-screen.  VTK >= 9.4 wheels pick a GL back end at
 run time; with no ``DISPLAY`` we ask for EGL (Mesa's llvmpipe software rasteriser when
-there is no GPU: Debian packages ``libegl1`` + ``libegl-mesa0`` + ``libgl1-mesa-dri``,
-installed by ``make install``) through ``VTK_DEFAULT_OPENGL_WINDOW`` unless the caller
-has set it, which saves VTK a failed attempt at an X connection.
+there is no GPU: Debian packages ``libegl1`` + ``libegl-mesa0`` + ``libgl1-mesa-dri``),
+or OSMesa (``libosmesa6``) when EGL is missing, through ``VTK_DEFAULT_OPENGL_WINDOW``
+unless the caller has set it (:func:`headless_backend`); this also saves VTK a failed
+attempt at an X connection.  ``make install`` installs these packages with apt when
+missing.  No X server, no xvfb.
 
 Only this module and :mod:`workbench.meshes`' PyVista wrappers import PyVista (lazily).
 """
@@ -77,17 +79,32 @@ WEAK_COLOR = "#c8c8c8"
 NAN_COLOR = "#e6e6e6"
 
 
+def _loadable(name: str) -> bool:
+    import ctypes
+
+    try:
+        ctypes.CDLL(name)
+    except OSError:
+        return False
+    return True
+
+
 def headless_backend() -> str | None:
     """Choose VTK's off-screen GL window when there is no display (see module doc).
 
-    Sets ``VTK_DEFAULT_OPENGL_WINDOW=vtkEGLRenderWindow`` when neither ``DISPLAY`` nor
-    ``WAYLAND_DISPLAY`` nor that variable is set; returns the variable's value.
-    Call before the first render window is made (``plotter`` does).
+    When neither ``DISPLAY``, ``WAYLAND_DISPLAY`` nor ``VTK_DEFAULT_OPENGL_WINDOW`` is set,
+    sets the latter to ``vtkEGLRenderWindow`` if ``libEGL.so.1`` loads, else to
+    ``vtkOSOpenGLRenderWindow`` if ``libOSMesa.so.8`` loads (both give the same pixels
+    with Mesa's llvmpipe); returns the variable's value.  Call before the first render
+    window is made (:func:`plotter` does).
     """
     key = "VTK_DEFAULT_OPENGL_WINDOW"
     if key not in os.environ and not os.environ.get("DISPLAY") \
             and not os.environ.get("WAYLAND_DISPLAY"):
-        os.environ[key] = "vtkEGLRenderWindow"
+        if _loadable("libEGL.so.1"):
+            os.environ[key] = "vtkEGLRenderWindow"
+        elif _loadable("libOSMesa.so.8"):
+            os.environ[key] = "vtkOSOpenGLRenderWindow"
     return os.environ.get(key)
 
 

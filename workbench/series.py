@@ -9,12 +9,15 @@ by :mod:`workbench.meshes` (the same arrays the PyVista pictures of
   data ``radius`` [m], ``velocity`` (n, 3) [m/s], ``speed`` [m/s], ``spin`` (n, 3)
   [rad/s], ``kind`` (0 sand, 1 wire bead), ``group`` (index into ``model.group_names``)
   and ``body_id``;
-* ``<name>_contacts_<frame>.vtu`` (PVD part 1), only when the step had contacts: one line
-  per contact, from the centre of sphere i to the centre of body j (sphere–sphere) or to
-  the contact point (sphere–wall), with cell data ``normal_force`` (k,) [N] (>= 0,
-  compression), ``tangential_force`` (k,) [N] (magnitude), ``force`` (k, 3) [N] (on i,
-  global frame), ``kind`` (0 sand–sand, 1 sand–wire, 2 wire–wire, 3 sphere–wall), ``i``,
-  ``j``, ``sub`` and ``wall`` (1 when j is a wall);
+* ``<name>_contacts_<frame>.vtu`` (PVD part 1): one line per contact of the last step,
+  from the centre of sphere i to the centre of body j (sphere–sphere) or to the contact
+  point (sphere–wall), with cell data ``normal_force`` (k,) [N] (>= 0, compression),
+  ``tangential_force`` (k,) [N] (magnitude), ``force`` (k, 3) [N] (on i, global frame),
+  ``kind`` (0 sand–sand, 1 sand–wire, 2 wire–wire, 3 sphere–wall), ``i``, ``j``, ``sub``
+  and ``wall`` (1 when j is a wall).  A frame without contacts gets a file with no points
+  and no cells (but every array): each frame has the same parts, so ParaView's block
+  numbers stay put (its PVD reader numbers blocks by the parts present at a time step).
+  meshio cannot read such an empty file back; VTK and ParaView can;
 * ``<name>_wire_<frame>.vtu`` (PVD part 2), only for scenes with wires: one line per wire
   link between the two bead centres, with cell data ``tension`` (l,) [N] (> 0 in
   tension), ``broken`` (1 = broken for good), ``length`` [m], ``ref_length`` [m] (g_ref
@@ -30,8 +33,11 @@ scaled by ``radius``), part 1 as lines coloured by ``normal_force``, part 2 colo
 ``tension``, part 3 with some opacity.  ``tests/workbench/test_paraview.py`` opens the
 series with ParaView's own reader (``pvpython``).
 
-No VTK or PyVista is needed: files are written by :mod:`meshio` (binary, appended raw data
-by default; ``compression="zlib"`` gives smaller, slower files).
+Each DataSet of the PVD carries ``name="beads"`` (``contacts``, ``wire``, ``walls``):
+ParaView (5.11) shows these as the block names.
+
+No VTK or PyVista is needed: files are written by :mod:`meshio` (binary, base64 inline,
+uncompressed by default; ``compression="zlib"`` gives smaller, slower files).
 """
 from __future__ import annotations
 
@@ -49,6 +55,7 @@ __all__ = ["SeriesWriter", "sphere_mesh", "contact_mesh", "wire_mesh", "wall_mes
 
 #: PVD part number of each kind of file.
 PARTS = {"beads": 0, "contacts": 1, "wire": 2, "walls": 3}
+_NAMES = {v: k for k, v in PARTS.items()}
 
 
 def sphere_mesh(model, state) -> meshio.Mesh:
@@ -132,20 +139,23 @@ class SeriesWriter:
         return int(step) % self.every == 0
 
     def frame_parts(self, model, state) -> dict:
-        """The parts of one frame, ``{"beads": Part, "contacts": Part | None, ...}``
-        (see :mod:`workbench.meshes`; ``None`` for a part with nothing to draw)."""
-        return {"beads": meshes.bead_part(model, state),
-                "contacts": meshes.contact_part(model, state),
-                "wire": meshes.wire_part(model, state),
-                "walls": meshes.wall_part(model, state) if self.walls else None}
+        """The parts of one frame, ``{"beads": Part, "contacts": Part, ...}`` (see
+        :mod:`workbench.meshes`).  The set of parts is the same in every frame of a run
+        (ParaView's PVD reader numbers its blocks by the parts present at a time step):
+        ``contacts`` is an empty part when there are none; ``wire`` exists for scenes
+        with links, ``walls`` for scenes with walls (and ``walls=True``)."""
+        parts = {"beads": meshes.bead_part(model, state),
+                 "contacts": meshes.contact_part(model, state, empty=True)}
+        if model.n_links:
+            parts["wire"] = meshes.wire_part(model, state)
+        if self.walls and model.n_walls:
+            parts["walls"] = meshes.wall_part(model, state)
+        return parts
 
     def write(self, model, state) -> None:
-        """Write the frame of ``state`` (spheres; contact lines, wire links and walls when
-        there are any) and rewrite the PVD."""
+        """Write the frame of ``state`` (one VTU per part) and rewrite the PVD."""
         t = float(state.time)
         for key, part in self.frame_parts(model, state).items():
-            if part is None:
-                continue
             infix = "" if key == "beads" else f"_{key}"
             stem = f"{self.name}{infix}_{self.frames:06d}.vtu"
             meshio.write(self.out_dir / stem, part.to_meshio(), file_format="vtu",
@@ -164,7 +174,8 @@ class SeriesWriter:
 
     def _write_pvd(self) -> None:
         rows = "".join(
-            f'    <DataSet timestep="{t!r}" group="" part="{part}" file={quoteattr(f)}/>\n'
+            f'    <DataSet timestep="{t!r}" group="" part="{part}" name="{_NAMES[part]}" '
+            f'file={quoteattr(f)}/>\n'
             for t, part, f in self._entries)
         text = ('<?xml version="1.0"?>\n'
                 '<VTKFile type="Collection" version="0.1" byte_order="LittleEndian">\n'

@@ -24,9 +24,12 @@ def _lattice(n: int, radius: float, spacing: float, z0: float) -> np.ndarray:
 
 
 def texsol_cylinder(n_sand: int = 300, wire_beads: int = 48, steps: int = 150, *,
-                    dt: float = 1e-4, seed: int = 0):
-    """Sand spheres on a loose lattice in a vertical cylinder (closed bottom) around a
-    horizontal wire ring (a closed elastic wire, 1 N), run for ``steps`` steps under gravity.
+                    dt: float = 1e-4, seed: int = 0, container_radius: float = R_CYL,
+                    max_iter: int = 300):
+    """Sand spheres on a loose lattice (gaps of 2 % of a diameter) in a vertical cylinder
+    (closed bottom) of ``container_radius`` [m] around a horizontal wire ring (a closed
+    elastic wire, 1 N; at most ``wire_beads`` beads, fewer if the ring is shorter), run for
+    ``steps`` steps under gravity.
 
     Returns ``(model, state, cylinder)`` with ``cylinder`` an
     :class:`engine.prep.containers.Cylinder` of the container (for toroidal maps).
@@ -34,8 +37,8 @@ def texsol_cylinder(n_sand: int = 300, wire_beads: int = 48, steps: int = 150, *
     rng = np.random.default_rng(seed)
     d_max = 2.2 * R_SAND
     spacing = 1.02 * d_max
-    usable = R_CYL - 0.5 * d_max - 0.02 * d_max
-    ring_r = 0.55 * R_CYL
+    usable = container_radius - 0.5 * d_max - 0.02 * d_max
+    ring_r = 0.55 * container_radius
     dphi = 2.1 * R_BEAD / ring_r
     n_ring = min(wire_beads, int(2 * np.pi / dphi))
     phi = 2 * np.pi * np.arange(n_ring) / n_ring
@@ -48,14 +51,14 @@ def texsol_cylinder(n_sand: int = 300, wire_beads: int = 48, steps: int = 150, *
     height = float(sites[:, 2].max() + 2 * d_max)
     s = Scene(gravity=(0.0, 0.0, -9.81))
     s.add_spheres(sites, radii, density=2650.0, group="sand")
-    s.add_cylinder(center=(0, 0, 0), axis=(0, 0, 1), radius=R_CYL, height=height, group="wall",
-                   bottom=True, top=False)
+    s.add_cylinder(center=(0, 0, 0), axis=(0, 0, 1), radius=container_radius, height=height,
+                   group="wall", bottom=True, top=False)
     s.add_wire(ring, radius=R_BEAD, density=1400.0, group="wire",
                law=laws.ElasticWire(stiffness=1.0), closed=True)
     for a, b in (("sand", "sand"), ("sand", "wall"), ("wire", "sand"), ("wire", "wall"),
                  ("wire", "wire")):
         s.interact(a, b, laws.Coulomb(mu=0.5))
-    model, state = s.compile(dt=dt, theta=0.5, tol=1e-4, max_iter=300)
+    model, state = s.compile(dt=dt, theta=0.5, tol=1e-4, max_iter=max_iter)
     if steps:
         run(model, state, steps, progress=False)
-    return model, state, Cylinder(radius=R_CYL, height=height)
+    return model, state, Cylinder(radius=container_radius, height=height)

@@ -158,3 +158,18 @@ def test_writer_options(tmp_path):
     np.testing.assert_array_equal(a.points, b.points)
     with pytest.raises(ValueError, match="compression"):
         SeriesWriter(tmp_path, compression="gzip")
+
+
+def test_frame_without_contacts_keeps_its_contacts_part(tmp_path):
+    """Before the first step there are no contact forces: part 1 is still written (no
+    points, no cells, every array), so all frames have the same parts."""
+    model, state = _scene()
+    w = SeriesWriter(tmp_path, name="s")
+    w.write(model, state)
+    entries = read_pvd(w.pvd_path)
+    assert [e["part"] for e in entries] == [0, 1, 3]
+    text = entries[1]["file"].read_text()
+    assert 'NumberOfPoints="0" NumberOfCells="0"' in text
+    for name in ("normal_force", "tangential_force", "force", "kind"):
+        assert f'Name="{name}"' in text
+    assert 'name="contacts"' in w.pvd_path.read_text()

@@ -2,7 +2,7 @@
 off-screen picture per render preset, for a ~30 000-bead TexSol scene, against the cost
 of one engine step of the same scene.
 
-Run:  .venv/bin/python bench/bench_render.py            (about 3-5 min on 2 shared cores)
+Run:  .venv/bin/python bench/bench_render.py            (about 1 min on 2 shared cores)
       .venv/bin/python bench/bench_render.py --quick    (2 000 beads, a smoke run)
 
 Writes bench/results/render-<YYYYmmdd-HHMM>.json and bench/results/render-latest.json
@@ -150,7 +150,7 @@ def bench_render(model, state, out: Path, repeat: int) -> dict:
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--n", type=int, default=30000, help="sand spheres")
-    ap.add_argument("--settle", type=int, default=40, help="steps before measuring")
+    ap.add_argument("--settle", type=int, default=200, help="steps before measuring")
     ap.add_argument("--steps", type=int, default=8, help="steps measured")
     ap.add_argument("--repeat", type=int, default=3)
     ap.add_argument("--quick", action="store_true", help="2 000 beads, a smoke run")

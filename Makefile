@@ -44,16 +44,20 @@ sysdeps:
 
 ## make test: the test suite (numba compilation included), two workers
 test: $(STAMP) sysdeps
-	$(PY) -m pytest -n 2 -q tests
+	$(PY) -m pytest -n 2 -q --timeout 900 tests
 
-## make demo: the main job (gravity deposit; figures + ParaView series under out/demo)
-demo: $(STAMP)
-	$(PY) examples/01_deposit.py --out out/demo
+## make demo: the main job, `nscd demo`: a small TexSol cylinder triaxial test ->
+## out/demo/run.h5 (HDF5 history), PNG figures and snapshots, a ParaView series
+demo: $(STAMP) sysdeps
+	$(VENV)/bin/nscd demo --out out/demo
 
 ## make bench: benchmarks; print figures and write JSON under bench/results/
 bench: $(STAMP)
 	$(PY) bench/bench_core.py
 	$(PY) bench/bench_wire.py
+	$(PY) bench/bench_prep.py
+	$(PY) bench/bench_render.py
+	$(PY) bench/bench_experiments.py
 
 ## make bench-peers: the same scenes in Siconos and Yade (installed with apt if missing)
 bench-peers: $(STAMP)

@@ -314,7 +314,7 @@ def parser() -> argparse.ArgumentParser:
     d = sub.add_parser("demo", help="a small TexSol cylinder triaxial: run.h5, PNGs, a ParaView series",
                        description=cmd_demo.__doc__ or "Run the demo.")
     d.add_argument("--out", default="out/demo", help="output directory (default out/demo)")
-    d.add_argument("--scale", type=float, default=0.05, help="sample scale (1 = paper)")
+    d.add_argument("--scale", type=float, default=0.1, help="sample scale (1 = paper)")
     d.add_argument("--strain", type=float, default=0.05, help="final axial strain")
     d.set_defaults(fn=cmd_demo)
     r = sub.add_parser("run", help="run a test from a TOML configuration file")

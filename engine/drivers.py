@@ -53,11 +53,10 @@ class Confinement:
     particles").
 
     The lateral surface is cut into angular sectors × height layers; in each cell the
-    particle reaching farthest from the axis (‖x − axis‖ + r) is a surface particle and gets
-    the force p · A · (−e_r), A = Δθ R Δz the cell's share of the lateral surface, R the
-    median outer radius ρ = ‖x − axis‖ + r of the surface particles.  Cells holding no particle centre (a few per cent with the
-    default cell size) hand their share to the others: the areas are scaled by
-    (number of cells) / (number of filled cells), so the total force is p × 2π R̄ H.  :meth:`apply` writes these forces into ``state.load`` (and
+    particle reaching farthest from the axis (‖x − axis‖ + r) is a surface particle.  The
+    surface particles share the total force p × 2π R H (H the sample height) in
+    proportion to their cross-sections π r², each along −e_r; R is the mean outer radius
+    ρ = ‖x − axis‖ + r of the surface particles weighted by those forces.  :meth:`apply` writes these forces into ``state.load`` (and
     clears the previous ones); call it every few steps as the sample deforms.
 
     Parameters
@@ -65,9 +64,8 @@ class Confinement:
     pressure : float [Pa], >= 0
     ids : (n,) int            the particles of the sample (sand and wire beads).
     center : (x, y) [m]       the vertical axis.
-    cell : float [m]          target size of a cell (default 1.5 × the mean diameter: a
-                              cell then holds about 3 particle centres; with 1 × it was
-                              empty a quarter of the time).
+    cell : float [m]          target size of a cell (default the mean diameter, about one
+                              surface particle per cell).
     """
 
     def __init__(self, pressure: float, ids, *, center=(0.0, 0.0), cell: float | None = None):
@@ -94,7 +92,7 @@ class Confinement:
         """Recompute the surface particles and their loads; returns the loaded area [m²]."""
         rho, theta, z0, z1 = self.geometry(model, state)
         rad = model.body_radius[self.ids]
-        cell = 3.0 * rad.mean() if self.cell is None else float(self.cell)
+        cell = 2.0 * rad.mean() if self.cell is None else float(self.cell)
         R = float(np.median(rho[rho > np.percentile(rho, 75)]))
         n_sec = max(4, int(round(2 * np.pi * R / cell)))
         n_lay = max(1, int(round((z1 - z0) / cell)))
@@ -109,13 +107,16 @@ class Confinement:
         R_med = float(np.median(rho[top]))
         keep = rho <= R_med + 4.0 * rad.mean()
         top = np.flatnonzero(keep)[self._outermost(rho[keep], cell_id[keep])]
-        # every cell's share is taken at the median outer radius of the surface particles,
-        # not at each particle's own ρ: with its own ρ, a grain thrown outwards got a larger
-        # area, hence a larger inward force, was thrown through the sample and out the other
-        # side, and the run blew up (seen on a 190-grain sample)
-        R_surf = float(np.median(rho[top]))
-        area = np.full(top.size, (2 * np.pi / n_sec) * R_surf * ((z1 - z0) / n_lay)
-                       * (n_sec * n_lay / top.size))
+        # the total force is p × 2π R H, R the median outer radius of the surface
+        # particles, shared in proportion to each particle's cross-section π r²: a cell's
+        # share on one small grain accelerated it by ~1e5 m/s² and grains were thrown
+        # through the sample (seen at scale 0.03 and 0.1)
+        # R is the force-weighted mean outer radius: then Σ ρ_i F_i = p 2π R² H and the
+        # Weber stress (Eq. 18) of the volume π R² H reads σ_rr = −p exactly at equilibrium
+        r_top = rad[top]
+        w = r_top ** 2 / np.sum(r_top ** 2)
+        R_surf = float(np.dot(w, rho[top]))
+        area = 2 * np.pi * R_surf * (z1 - z0) * w
         f = self.pressure * area
         state.load[self.ids[self.surface]] = 0.0
         self.surface = top

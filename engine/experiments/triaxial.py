@@ -282,9 +282,15 @@ class _SplitRecorder(Recorder):
 
 
 def _split(rec, stage_of):
+    """Rows of the triaxial stage, starting with the last isotropic record (the state the
+    loading starts from: axial strain 0, deviator about 0), and rows of the isotropic one."""
     st = np.asarray(stage_of)
-    tri = {k: np.asarray(v)[st == 1] for k, v in rec.rows.items()}
-    iso = {k: np.asarray(v)[st == 0] for k, v in rec.rows.items()}
+    first = np.flatnonzero(st == 1)
+    if first.size and first[0] > 0:
+        st = st.copy()
+        st[first[0] - 1] = 2                      # both stages
+    tri = {k: np.asarray(v)[st >= 1] for k, v in rec.rows.items()}
+    iso = {k: np.asarray(v)[(st == 0) | (st == 2)] for k, v in rec.rows.items()}
     return tri, iso
 
 

@@ -34,10 +34,10 @@ from typing import Callable
 
 import h5py
 import numpy as np
-from numba import njit
 
 from . import laws as _laws
 from .model import SPHERE, Drive, Model, Options
+from .analysis.energy import kinetic_energy  # noqa: F401  (engine.io.kinetic_energy)
 from .state import ContactBuffers, State, StepStats
 
 #: Name written in the root attribute ``format``.
@@ -479,22 +479,6 @@ class Checkpoint:
 
 
 # -- history -----------------------------------------------------------------------------------
-@njit(cache=True)
-def _kinetic_energy(vel6, mass, inertia, ids):
-    e = 0.0
-    for b in ids:
-        v = vel6[b]
-        e += 0.5 * (mass[b] * (v[0] * v[0] + v[1] * v[1] + v[2] * v[2])
-                    + inertia[b] * (v[3] * v[3] + v[4] * v[4] + v[5] * v[5]))
-    return e
-
-
-def kinetic_energy(model: Model, state: State) -> float:
-    """Kinetic energy of the spheres, Σ ½ m v² + ½ I ω² [J] (walls excluded)."""
-    return float(_kinetic_energy(state.vel6, model.body_mass, model.body_inertia,
-                                 model.sphere_ids))
-
-
 def wall_forces(model: Model, state: State) -> np.ndarray:
     """Total contact force on each wall over the last step, (nw, 3) [N], ``model.wall_ids``
     order (the opposite of the impulses on the spheres, divided by the step length)."""

@@ -177,25 +177,17 @@ def cylinder_triaxial(scale: float = 0.05, *, pressure: float = 15e3, wire: bool
     R0 = conf.radius
     try:
         # stage 1: isotropic
-        ok_count, iso_steps = 0, 0
-        while iso_steps < iso_max_steps:
-            if not stages.run(confine_every):
-                break
-            iso_steps += confine_every
-            # the pressure rises linearly over ramp_steps (a sudden p on a loose sample
-            # throws its outer grains in at metres per second)
-            p_now.value = conf.pressure = p * min(1.0, iso_steps / max(ramp_steps, 1))
+        def set_pressure(v):
+            p_now.value = conf.pressure = v
+
+        def measure():
             # the spheres push the top wall up: compression positive
             sigma_top = wall_forces(model, state, [top])[0, 2] / (math.pi * conf.radius ** 2)
             conf.apply(model, state)
-            tot = stresses(model, state)[0]
-            pm = -np.trace(tot) / 3
-            ok = (p_now.value == p and abs(pm / p - 1) < iso_tol
-                  and abs(sigma_top / p - 1) < iso_tol)
-            ok_count = ok_count + 1 if ok else 0
-            if ok_count >= iso_hold:
-                break
-        iso_reached = ok_count >= iso_hold
+            return (-np.trace(stresses(model, state)[0]) / 3, sigma_top)
+
+        iso_reached = _isotropic(stages, confine_every, iso_max_steps, ramp_steps, p,
+                                 set_pressure, measure, iso_tol, iso_hold)
         # stage 2: triaxial
         stage["value"] = 1
         H0 = state.position[top, 2] - state.position[floor, 2]
@@ -239,6 +231,27 @@ def cylinder_triaxial(scale: float = 0.05, *, pressure: float = 15e3, wire: bool
             res.extra["H"] = None
             res.extra["H_error"] = str(e)
     return finish(res, stages, max_nonconverged)
+
+
+def _isotropic(stages, every, max_steps, ramp_steps, p, set_pressure, measure, iso_tol,
+               iso_hold) -> bool:
+    """Stage 1: raise the pressure linearly over ``ramp_steps`` (a sudden p on a loose
+    sample throws its outer grains in at metres per second), then run until every stress
+    ``measure()`` returns is within ``iso_tol`` of p for ``iso_hold`` consecutive checks
+    ``every`` steps apart.  Returns whether it got there within ``max_steps``."""
+    ok_count, n = 0, 0
+    while n < max_steps:
+        if not stages.run(every):
+            break
+        n += every
+        p_now = p * min(1.0, n / max(ramp_steps, 1))
+        set_pressure(p_now)
+        values = measure()
+        ok = p_now == p and all(abs(v / p - 1) < iso_tol for v in values)
+        ok_count = ok_count + 1 if ok else 0
+        if ok_count >= iso_hold:
+            break
+    return ok_count >= iso_hold
 
 
 def model_mass(sample, density=2650.0):
@@ -435,21 +448,14 @@ def box_triaxial(scale: float = 0.05, *, pressure: float = 15e3, wire: bool = Tr
     strains = {}
     H0 = top_z
     try:
-        ok_count, iso_steps = 0, 0
-        while iso_steps < iso_max_steps:
-            if not stages.run(check_every):
-                break
-            iso_steps += check_every
-            p_now.value = p * min(1.0, iso_steps / max(ramp_steps, 1))
-            ws = wall_sigma(model, state)
+        def measure():
             Lx, Ly, H = dims(state)
-            pm = -np.trace(_weber(model, state, "all", Lx * Ly * H)) / 3
-            ok = (p_now.value == p and abs(pm / p - 1) < iso_tol
-                  and np.all(np.abs(ws / p - 1) < iso_tol))
-            ok_count = ok_count + 1 if ok else 0
-            if ok_count >= iso_hold:
-                break
-        iso_reached = ok_count >= iso_hold
+            return (-np.trace(_weber(model, state, "all", Lx * Ly * H)) / 3,
+                    *wall_sigma(model, state))
+
+        iso_reached = _isotropic(stages, check_every, iso_max_steps, ramp_steps, p,
+                                 lambda v: setattr(p_now, "value", v), measure, iso_tol,
+                                 iso_hold)
         stage["value"] = 1
         H0 = dims(state)[2]
         ref = state.position.copy()

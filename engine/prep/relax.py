@@ -8,21 +8,11 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from ..analysis.energy import kinetic_energy
 from ..model import SPHERE
 from ..step import NonConvergenceWarning, run
 
 __all__ = ["relax", "RelaxReport", "kinetic_energy"]
-
-
-def kinetic_energy(model, state, bodies=None) -> float:
-    """Σ ½ m v² + ½ I ω² [J] over ``bodies`` (ids; default every sphere)."""
-    if bodies is None:
-        s = np.asarray(model.body_kind) == SPHERE
-    else:
-        s = np.asarray(bodies, dtype=np.int64)
-    v2 = np.einsum("ij,ij->i", state.velocity[s], state.velocity[s])
-    w2 = np.einsum("ij,ij->i", state.spin[s], state.spin[s])
-    return float(0.5 * np.dot(model.body_mass[s], v2) + 0.5 * np.dot(model.body_inertia[s], w2))
 
 
 @dataclass

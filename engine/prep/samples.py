@@ -140,6 +140,16 @@ def _build(name, container, wire_region, radii, *, wire, wire_density, bead_radi
     return s
 
 
+def _paper(name, container, wire_region, scale, *, wire, wire_density, bead_radius, seed):
+    """The paper's grains for ``name`` at ``scale`` in ``container``, and the wire."""
+    p = PAPER[name]
+    n = max(1, int(round(p["n_sand"] * scale)))
+    radii = granulometry.uniform(p["d_min"], p["d_max"], n=n, seed=seed + 2)
+    return _build(name, container, wire_region, radii, wire=wire,
+                  wire_density=p["wire_density"] if wire_density is None else wire_density,
+                  bead_radius=p["bead_radius"] if bead_radius is None else bead_radius, seed=seed)
+
+
 def _scale(scale):
     s = float(scale)
     if not (math.isfinite(s) and s > 0):
@@ -155,11 +165,8 @@ def cylinder_sample(scale: float = 1.0, *, wire: bool = True, wire_density: floa
     s = _scale(scale)
     L = s ** (1.0 / 3.0)
     c = Cylinder(0.5 * p["diameter"] * L, p["height"] * L)
-    n = max(1, int(round(p["n_sand"] * s)))
-    radii = granulometry.uniform(p["d_min"], p["d_max"], n=n, seed=seed + 2)
-    return _build("cylinder", c, c, radii, wire=wire,
-                  wire_density=p["wire_density"] if wire_density is None else wire_density,
-                  bead_radius=p["bead_radius"] if bead_radius is None else bead_radius, seed=seed)
+    return _paper("cylinder", c, c, s, wire=wire, wire_density=wire_density,
+                  bead_radius=bead_radius, seed=seed)
 
 
 def box_sample(scale: float = 1.0, *, wire: bool = True, wire_density: float | None = None,
@@ -167,15 +174,11 @@ def box_sample(scale: float = 1.0, *, wire: bool = True, wire_density: float | N
     """The box triaxial sample (§3.2): a 16 mm cube, 6 500 grains and a wire at 200 km·m⁻³
     (8 000 particles in all at scale 1).  ``bead_radius`` r_w (Fig. 12: r_min, r_min/3,
     r_min/4; default r_min)."""
-    p = PAPER["box"]
     s = _scale(scale)
-    a = p["side"] * s ** (1.0 / 3.0)
+    a = PAPER["box"]["side"] * s ** (1.0 / 3.0)
     c = Box((0.0, 0.0, 0.0), (a, a, a))
-    n = max(1, int(round(p["n_sand"] * s)))
-    radii = granulometry.uniform(p["d_min"], p["d_max"], n=n, seed=seed + 2)
-    return _build("box", c, c, radii, wire=wire,
-                  wire_density=p["wire_density"] if wire_density is None else wire_density,
-                  bead_radius=p["bead_radius"] if bead_radius is None else bead_radius, seed=seed)
+    return _paper("box", c, c, s, wire=wire, wire_density=wire_density,
+                  bead_radius=bead_radius, seed=seed)
 
 
 def slope_sample(scale: float = 1.0, *, wire: bool = True, wire_density: float | None = None,
@@ -189,11 +192,8 @@ def slope_sample(scale: float = 1.0, *, wire: bool = True, wire_density: float |
     c = Cylinder(0.5 * p["diameter"] * L, p["height"] * L)
     layer = min(2 * p["d_max"], 0.25 * c.radius)
     inner = Cylinder(c.radius - layer, c.height)
-    n = max(1, int(round(p["n_sand"] * s)))
-    radii = granulometry.uniform(p["d_min"], p["d_max"], n=n, seed=seed + 2)
-    return _build("slope", c, inner, radii, wire=wire,
-                  wire_density=p["wire_density"] if wire_density is None else wire_density,
-                  bead_radius=p["bead_radius"] if bead_radius is None else bead_radius, seed=seed)
+    return _paper("slope", c, inner, s, wire=wire, wire_density=wire_density,
+                  bead_radius=bead_radius, seed=seed)
 
 
 _BUILDERS = {"cylinder": cylinder_sample, "box": box_sample, "slope": slope_sample}

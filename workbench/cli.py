@@ -8,6 +8,11 @@
     nscd render RUN.h5 [--frame N] [--preset beads|wire|forces|torus] [--camera ...] [--out PNG]
     nscd export RUN.h5 OUTDIR                every frame of a history as VTU + a PVD
     nscd info RUN.h5                         what a checkpoint or history holds
+    nscd paper [--scale tiny|default|paper] [--out DIR] [--scheduler ADDRESS|serial]
+                                             reproduce the paper's §3: DIR/report.md, figures,
+                                             runs, series (workbench/paper.py)
+    nscd sweep TEST --grid NAME=V1,V2 ... [--out TABLE.json] [--scheduler ADDRESS|serial]
+                                             independent runs of a test on Dask (engine.sweep)
 
 A TOML file for ``nscd run``::
 
@@ -307,6 +312,62 @@ def cmd_info(a) -> int:
     return 0
 
 
+def cmd_paper(a) -> int:
+    from .paper import build_report
+
+    rep = build_report(a.out, a.scale, scheduler=a.scheduler, render=not a.no_render)
+    counts = {}
+    for c in rep.claims:
+        counts[c.status] = counts.get(c.status, 0) + 1
+    print(f"nscd paper: {rep.path} ({len(rep.claims)} claims: "
+          + ", ".join(f"{n} {k}" for k, n in sorted(counts.items()))
+          + f"; {len(rep.figures)} figures; {rep.wall_time:.0f} s)")
+    for p in rep.problems:
+        print(f"  problem: {p}", file=sys.stderr)
+    return 0 if not rep.table.failed else 1
+
+
+def _value(text):
+    for conv in (int, float):
+        try:
+            return conv(text)
+        except ValueError:
+            pass
+    return {"true": True, "false": False, "none": None}.get(text.lower(), text)
+
+
+def parse_grid(items) -> dict:
+    """``["k=0.1,1,10", "seed=0,1", "scale=0.05"]`` -> {"k": [0.1, 1, 10], ...}."""
+    grid = {}
+    for it in items or []:
+        if "=" not in it:
+            raise ValueError(f"--grid {it!r}: expected NAME=V1,V2,...")
+        name, vals = it.split("=", 1)
+        name = name.strip()
+        if not name.isidentifier():
+            raise ValueError(f"--grid {it!r}: {name!r} is not a parameter name")
+        grid[name] = [_value(v.strip()) for v in vals.split(",") if v.strip()]
+        if not grid[name]:
+            raise ValueError(f"--grid {it!r}: no value")
+    return grid
+
+
+def cmd_sweep(a) -> int:
+    from engine.sweep import EXPERIMENTS, sweep
+
+    if a.test not in EXPERIMENTS:
+        raise ValueError(f"unknown test {a.test!r}; choose one of {', '.join(EXPERIMENTS)}")
+    grid = parse_grid(a.grid)
+    out = Path(a.out or Path("out") / f"sweep_{a.test}.json")
+    table = sweep(a.test, grid, a.scheduler, out=out, retries=a.retries,
+                  fixed={"history_dir": str(out.with_suffix("")) + "_runs"},
+                  n_workers=a.workers)
+    for r in table.failed:
+        print(f"failed: {r['id']} {r['params']}: {r['errors'][-1].splitlines()[0]}",
+              file=sys.stderr)
+    return 0 if not table.failed else 1
+
+
 def parser() -> argparse.ArgumentParser:
     p = argparse.ArgumentParser(prog="nscd", description="nscd-workbench: NSCD of sand and "
                                 "wire (TexSol) — run the paper's tests, render and export runs.")
@@ -336,6 +397,28 @@ def parser() -> argparse.ArgumentParser:
     i = sub.add_parser("info", help="summarise a checkpoint or history file")
     i.add_argument("run")
     i.set_defaults(fn=cmd_info)
+    pp = sub.add_parser("paper", help="reproduce the paper's §3 (Fig. 7-16, Table 2): a "
+                        "Markdown report with figures, runs and series")
+    pp.add_argument("--scale", default="default", choices=("tiny", "default", "paper"),
+                    help="tiny: smoke test (minutes); default: small samples (~15 min on 2 "
+                         "cores); paper: the paper's sizes (days: use --scheduler)")
+    pp.add_argument("--out", default="out/paper", help="output directory (default out/paper)")
+    pp.add_argument("--scheduler", default=None,
+                    help="Dask scheduler address (default: a LocalCluster of 2 workers; "
+                         "'serial': no Dask)")
+    pp.add_argument("--no-render", action="store_true", help="skip the PyVista snapshots")
+    pp.set_defaults(fn=cmd_paper)
+    sw = sub.add_parser("sweep", help="run a test over a grid of parameters on Dask")
+    sw.add_argument("test", help="cylinder_triaxial, box_triaxial or slope_deposit")
+    sw.add_argument("--grid", action="append", metavar="NAME=V1,V2",
+                    help="a parameter and its values (repeat; the cases are the product); "
+                         "wire=elastic|rigid|none and k=... [N] choose the wire law")
+    sw.add_argument("--out", help="JSON table (default out/sweep_<test>.json; .h5 beside it)")
+    sw.add_argument("--scheduler", default=None,
+                    help="Dask scheduler address (default: a LocalCluster; 'serial': no Dask)")
+    sw.add_argument("--workers", type=int, default=2, help="LocalCluster workers (default 2)")
+    sw.add_argument("--retries", type=int, default=1, help="retries of a failed case (default 1)")
+    sw.set_defaults(fn=cmd_sweep)
     return p
 
 

@@ -198,6 +198,25 @@ def main(argv=None) -> int:
         print(f"building the parts (numpy): {frame['build_parts_s'] * 1e3:.1f} ms; beads+contacts: "
               f"meshio {frame.get('meshio_beads_contacts_s', float('nan')) * 1e3:.1f} ms, "
               f"VTK XML {frame.get('vtk_xml_beads_contacts_s', float('nan')) * 1e3:.1f} ms")
+        # HDF5: one history record and one frame (engine.io.History)
+        from engine.io import History
+        h = History(tmp / "h.h5", trigger=1, frames=1, flush=1)
+        rec_t, frame_t = [], []
+        for r in range(a.repeat + 1):
+            t0 = time.perf_counter()
+            h.write(model, state)          # record + frame (frames=1), flushed (flush=1)
+            dt_ = time.perf_counter() - t0
+            if r:                          # the first call creates the datasets
+                frame_t.append(dt_)
+            state.step += 1                # History wants increasing steps
+        h.close()
+        state.step -= a.repeat + 1
+        frame["hdf5_record_and_frame_s"] = float(np.median(frame_t))
+        frame["hdf5_share_of_run_at_every_100"] = frame["hdf5_record_and_frame_s"] / (
+            per + frame["hdf5_record_and_frame_s"])
+        print(f"HDF5 record + frame (engine.io.History, flushed): "
+              f"{frame['hdf5_record_and_frame_s'] * 1e3:.1f} ms = "
+              f"{100 * frame['hdf5_share_of_run_at_every_100']:.2f} % of the run at every={EVERY}")
         rend = bench_render(model, state, tmp, a.repeat)
         for p in ("beads", "wire", "forces", "torus"):
             print(f"render {p:6s}: {rend[p]['best_s']:.2f} s (best of {a.repeat}; median "

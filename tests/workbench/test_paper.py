@@ -15,7 +15,7 @@ pytest.importorskip("distributed")
 
 from workbench.paper import SCALES, cases_for  # noqa: E402
 
-CLAIMS = ["fig7", "fig8-9", "fig10a", "fig10b", "fig11a", "fig11b", "fig11c", "fig12",
+CLAIMS = ["fig7", "fig8-9", "fig10a", "fig10b", "fig11a", "fig11b", "fig11c", "fig12a", "fig12b",
           "fig13a", "fig13b", "fig13c", "fig14-k0.2", "fig14-rigid", "fig14-order", "fig15",
           "fig16a", "fig16b"]
 FIGURES = ["fig07_tortuosity", "fig08_09_directions", "fig09_beads", "fig09_wire",
@@ -78,3 +78,19 @@ def test_nscd_paper_tiny(tmp_path):
     assert p2.returncode == 0, p2.stderr[-3000:]
     n = len(cases_for(SCALES["tiny"]))
     assert f"{n} cases, {n} already done, 0 to run" in p2.stdout
+
+
+def test_sweep_grid_parsing():
+    from workbench.cli import parse_grid, parser
+
+    assert parse_grid(["k=0.1,1,10", "seed=0,1", "wire=rigid", "scale=0.05"]) == {
+        "k": [0.1, 1, 10], "seed": [0, 1], "wire": ["rigid"], "scale": [0.05]}
+    with pytest.raises(ValueError, match="NAME=V1"):
+        parse_grid(["k"])
+    with pytest.raises(ValueError, match="no value"):
+        parse_grid(["k="])
+    a = parser().parse_args(["sweep", "cylinder_triaxial", "--grid", "k=1,2",
+                             "--scheduler", "serial"])
+    assert a.test == "cylinder_triaxial" and a.scheduler == "serial" and a.retries == 1
+    a = parser().parse_args(["paper", "--scale", "tiny", "--out", "x"])
+    assert (a.scale, a.out, a.scheduler) == ("tiny", "x", None)

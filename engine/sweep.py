@@ -360,14 +360,15 @@ def write_hdf5(table: SweepTable, path) -> Path:
 
 def local_client(n_workers: int = 2, *, threads_per_worker: int = 1, **kwargs):
     """A ``dask.distributed.Client`` on a new ``LocalCluster`` of ``n_workers`` processes
-    (one thread each: the engine's kernels are serial, one simulation per core), no
-    dashboard.  The caller closes it (``client.close(); client.cluster.close()``)."""
+    (one thread each: the engine's kernels are serial, one simulation per core), the
+    dashboard on a free port (``client.dashboard_link``).  The caller closes it
+    (``client.close(); client.cluster.close()``)."""
     import logging
 
     from distributed import Client, LocalCluster
 
     kw = dict(n_workers=n_workers, threads_per_worker=threads_per_worker, processes=True,
-              dashboard_address=None, silence_logs=logging.ERROR)
+              dashboard_address=":0", silence_logs=logging.ERROR)     # any free port
     kw.update(kwargs)
     cluster = LocalCluster(**kw)
     return Client(cluster)

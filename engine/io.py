@@ -822,11 +822,18 @@ def _state_from_frame(f, model: Model, frame: int) -> State:
     vel6 = np.zeros((nb, 6))
     vel6[:, :3], vel6[:, 3:] = fg["velocity"][k], fg["spin"][k]
     h = model.options.dt
+    # the link frame of the analysis (engine.analysis.weber_stress): unit vector from j to
+    # i and centre distance, here at the frame's positions (frames do not store the
+    # step's predicted configuration)
+    pos_k = fg["position"][k]
+    d = pos_k[model.link_i] - pos_k[model.link_j]
+    gap = np.linalg.norm(d, axis=1)
+    normal = d / np.where(gap > 0, gap, 1.0)[:, None]
     state = State(position=np.ascontiguousarray(fg["position"][k]), vel6=vel6,
                   time=float(fg["time"][k]), step=int(fg["step"][k]), last_dt=h,
                   link_i=model.link_i.copy(), link_j=model.link_j.copy(),
                   link_impulse=fg["link_tension"][k] * h, link_broken=fg["link_broken"][k],
-                  link_normal=np.zeros((model.n_links, 3)), link_gap=np.zeros(model.n_links))
+                  link_normal=normal, link_gap=gap)
     state.link_excluded_next = model.body_next.copy()
     state.link_excluded_next[model.link_i[state.link_broken]] = -1
     a, n = int(fg["contact_start"][k]), int(fg["contact_count"][k])

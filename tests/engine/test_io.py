@@ -392,3 +392,29 @@ def test_history_bad_input_names_the_field(tmp_path):
     h.close()
     with pytest.raises(ValueError, match="is closed"):
         h.write(model, state)
+
+
+def test_history_frame_gives_the_wire_stress(tmp_path):
+    """A frame's state carries the link frame (unit vector j -> i at the frame's positions),
+    so the wire part of the Weber stress (Eq. 18) read from a history matches the one of the
+    run: equal up to the O(h v) difference between the end-of-step positions of the frame
+    and the predicted configuration the run used."""
+    from engine.analysis import weber_stress
+
+    model, state = scene()
+    live = {}
+
+    def observe(m, s):
+        if s.step % 25 == 0:
+            live[s.step] = weber_stress(m, s, part="wire").tensor
+
+    path = tmp_path / "run.h5"
+    with io.History(path, frames=25) as h, _Quiet():
+        run(model, state, 100, writers=[CallbackWriter(observe, 1), h], progress=False)
+    k = max(range(4), key=lambda q: np.abs(live[25 * (q + 1)]).max())   # the most taut frame
+    _, s2 = io.load(path, frame=k)
+    assert np.allclose(np.linalg.norm(s2.link_normal, axis=1), 1.0)
+    got = weber_stress(model, s2, part="wire").tensor
+    ref = live[25 * (k + 1)]
+    assert np.abs(ref).max() > 0
+    np.testing.assert_allclose(got, ref, rtol=0, atol=0.02 * np.abs(ref).max())

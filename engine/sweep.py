@@ -386,7 +386,7 @@ def _error_text(exc, tb_text=None) -> str:
 
 def sweep(experiment, grid, client=None, *, out="out/sweep.json", retries: int = 1,
           fixed: dict | None = None, n_workers: int = 2, hdf5: bool = True,
-          progress: bool = True) -> SweepTable:
+          progress: bool = True, no_worker_timeout: float = 300.0) -> SweepTable:
     """Run every case of ``grid`` (see :func:`expand_grid`) as an independent simulation and
     gather the scalar results into one table.
 
@@ -409,6 +409,9 @@ def sweep(experiment, grid, client=None, *, out="out/sweep.json", retries: int =
         ``progress=False`` ...).
     progress : bool
         One line per finished or failed case on stdout.
+    no_worker_timeout : float [s]
+        When the cluster has had no worker for this long (all killed or crashed), the
+        cases still pending fail ("NoWorkers") instead of waiting forever.
 
     Returns
     -------
@@ -466,9 +469,9 @@ def sweep(experiment, grid, client=None, *, out="out/sweep.json", retries: int =
         say(f"  done   {row['id']} {json.dumps(row['params'])} in {row['elapsed']:.1f} s "
             f"(attempt {row['attempts']})")
 
-    def failed(row, msg):
+    def failed(row, msg, final=None):
         row["errors"].append(msg)
-        final = row["attempts"] > retries
+        final = row["attempts"] > retries if final is None else final
         if final:
             row["status"] = "failed"
             save()
@@ -491,7 +494,8 @@ def sweep(experiment, grid, client=None, *, out="out/sweep.json", retries: int =
                         finished(row, payload)
                     break
         else:
-            _run_dask(fn, todo, client, fixed, n_workers, finished, failed)
+            _run_dask(fn, todo, client, fixed, n_workers, finished, failed,
+                      no_worker_timeout=no_worker_timeout)
     table.wall_time = time.perf_counter() - t0
     save()
     if hdf5:
@@ -500,8 +504,13 @@ def sweep(experiment, grid, client=None, *, out="out/sweep.json", retries: int =
     return table
 
 
-def _run_dask(fn, todo, client, fixed, n_workers, finished, failed):
-    from distributed import Client, as_completed
+def _run_dask(fn, todo, client, fixed, n_workers, finished, failed, *, poll=5.0,
+              no_worker_timeout=300.0):
+    from distributed import Client, wait
+    try:
+        from dask.distributed import TimeoutError as _DistTimeout
+    except ImportError:  # pragma: no cover
+        _DistTimeout = TimeoutError
 
     own = None
     if client is None:
@@ -515,24 +524,39 @@ def _run_dask(fn, todo, client, fixed, n_workers, finished, failed):
             return client.submit(run_case, fn, row["params"], fixed, pure=False,
                                  key=f"{row['id']}-a{row['attempts']}")
 
-        futures = {}
-        for row in todo:
-            futures[submit(row)] = row
-        ac = as_completed(list(futures))
-        for fut in ac:
-            row = futures.pop(fut)
+        futures = {submit(row): row for row in todo}
+        no_workers_since = None
+        while futures:
             try:
-                payload = fut.result()
-            except Exception as e:  # noqa: BLE001 - includes KilledWorker (a crashed case)
-                tb = fut.traceback()
-                tb_text = "".join(traceback.format_tb(tb)) if tb is not None else None
-                if failed(row, _error_text(e, tb_text)):
-                    nf = submit(row)
-                    futures[nf] = row
-                    ac.add(nf)
-            else:
-                finished(row, payload)
-            fut.release()
+                done = wait(list(futures), timeout=poll, return_when="FIRST_COMPLETED").done
+            except (TimeoutError, _DistTimeout):
+                done = set()
+            if not done:
+                # a cluster whose workers are all gone (killed, crashed) would wait forever:
+                # after no_worker_timeout seconds without a worker the pending cases fail
+                if not client.scheduler_info().get("workers"):
+                    no_workers_since = no_workers_since or time.monotonic()
+                    if time.monotonic() - no_workers_since > no_worker_timeout:
+                        for fut, row in list(futures.items()):
+                            failed(row, f"NoWorkers: the cluster had no worker for "
+                                        f"{no_worker_timeout:.0f} s", final=True)
+                            fut.release()
+                        futures.clear()
+                else:
+                    no_workers_since = None
+                continue
+            for fut in done:
+                row = futures.pop(fut)
+                try:
+                    payload = fut.result()
+                except Exception as e:  # noqa: BLE001 - includes KilledWorker (a crashed case)
+                    tb = fut.traceback()
+                    tb_text = "".join(traceback.format_tb(tb)) if tb is not None else None
+                    if failed(row, _error_text(e, tb_text)):
+                        futures[submit(row)] = row
+                else:
+                    finished(row, payload)
+                fut.release()
     finally:
         if own is not None:
             cluster = getattr(own, "cluster", None)

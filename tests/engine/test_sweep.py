@@ -159,6 +159,18 @@ def test_rerun_skips_finished_cases(tmp_path, capsys):
         assert len(json.load(f)["cases"]) == 3
 
 
+def test_a_cluster_without_workers_fails_the_cases_instead_of_hanging(tmp_path):
+    c = local_client(0)
+    try:
+        table = sweep(drop, [{"height": 2e-3}, {"height": 3e-3}], c, out=tmp_path / "n.json",
+                      no_worker_timeout=2.0, progress=False)
+    finally:
+        c.close()
+        c.cluster.close()
+    assert [r["status"] for r in table.rows] == ["failed", "failed"]
+    assert all("NoWorkers" in r["errors"][-1] for r in table.rows)
+
+
 def test_named_experiment_rejects_bad_input(tmp_path):
     table = sweep("box_triaxial", {"scale": [0.03], "wire": ["steel"]}, "serial",
                   out=tmp_path / "bad.json", retries=0, progress=False)

@@ -969,10 +969,7 @@ def _markdown(scale, claims, figs, pvds, table, rows, curves, out, wall, t_sim, 
                   ("fig13", "Fig. 13 — cylinder (k = 1 N): barrel profile and toroidal wire-stress map"),
                   ("fig13_beads", "Fig. 13(a) — the cylinder at the end"),
                   ("fig13_wire", "Fig. 13(b) — the wire in tension"),
-                  ("fig13_torus", "Fig. 13(c) — toroidal map of σ_w^eq, rendered from the last history frame "
-                   "(engine.io.load leaves link_normal at zero in history frames, so the wire "
-                   "part of this picture may read 0 Pa; the map of Fig. 13 above is computed "
-                   "during the run and is the one the claims use)"),
+                  ("fig13_torus", "Fig. 13(c) — toroidal map of σ_w^eq (PyVista, last history frame)"),
                   ("fig14", "Fig. 14 — deviator and volumetric strain: sand, elastic k = 0.2 N, rigid (all seeds)"),
                   ("fig15", "Fig. 15 — wire equivalent stress vs axial strain, with the linear fits"),
                   ("fig16", "Fig. 16 / Table 2 — macro-stiffness H vs k; right: H / H∞, ours and the paper's")]

@@ -205,7 +205,10 @@ def cylinder_triaxial(scale: float = 0.05, *, pressure: float = 15e3, wire: bool
             conf.apply(model, state)
             H = state.position[top, 2] - state.position[floor, 2]
             eps = 1 - H / H0
-            while targets and eps >= targets[0] and wire:
+            last = done >= n_load
+            # the last chunk ends within one step of the final strain (the first step lags
+            # by θ h ε̇): a target equal to it is taken there
+            while targets and wire and (eps >= targets[0] or (last and targets[0] >= eps_max - 1e-12)):
                 e = targets.pop(0)
                 maps[e] = toroidal_map(model, state, Cylinder(conf.radius, H), part="wire")
     finally:

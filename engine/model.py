@@ -9,7 +9,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 import numpy as np
-from pydantic import BaseModel, ConfigDict, Field
+from pydantic import BaseModel, ConfigDict, Field, field_validator
 
 #: ``body_kind`` codes.
 SPHERE, PLANE, CYLINDER = 0, 1, 2
@@ -51,6 +51,11 @@ class Options(BaseModel):
         and is rebuilt when a body has moved more than skin/2 since the last build.
     gravity : tuple of 3 floats
         Gravity [m/s²] applied to free spheres.
+    threads : int
+        NLGS threads, in [1, 64].  1 (the default): the serial Gauss–Seidel sweep.  T > 1:
+        the domain-decomposed Gauss–Seidel of :mod:`engine.solver.parallel` (T domains swept
+        at once; the same physics within ``tol``, results reproducible for a given T); it
+        pays on large dense scenes only (docs/speed.md).
     """
 
     model_config = ConfigDict(frozen=True, extra="forbid")
@@ -63,6 +68,14 @@ class Options(BaseModel):
     alert: float = Field(ge=0.0, allow_inf_nan=False)
     skin: float = Field(gt=0.0, allow_inf_nan=False)
     gravity: tuple[float, float, float] = (0.0, 0.0, -9.81)
+    threads: int = Field(1, ge=1, le=64)
+
+    @field_validator("threads", mode="before")
+    @classmethod
+    def _threads_not_bool(cls, v):
+        if isinstance(v, (bool, np.bool_)):
+            raise ValueError("threads must be an integer in [1, 64], not a bool")
+        return v
 
 
 @dataclass(frozen=True)

@@ -433,7 +433,8 @@ class Scene:
                                      f"{sphere_ids[bad][:10].tolist()}")
 
     def compile(self, dt: float, theta: float = 0.5, tol: float = 1e-4, max_iter: int = 1000,
-                relax: float = 1.0, alert: float | None = None, skin: float | None = None):
+                relax: float = 1.0, alert: float | None = None, skin: float | None = None,
+                threads: int = 1):
         """Freeze the scene into a :class:`Model` and its initial :class:`State`.
 
         Parameters
@@ -445,6 +446,8 @@ class Scene:
         alert, skin : float [m]
             Alert distance (default 0.1 × smallest sphere radius) and Verlet skin (default
             0.5 × smallest radius).
+        threads : int in [1, 64]
+            NLGS threads (:attr:`engine.model.Options.threads`; 1 = serial, the default).
 
         Raises
         ------
@@ -462,7 +465,8 @@ class Scene:
         rmin = float(radius[sphere_ids].min()) if sphere_ids.size else 1e-3
         opts = Options(dt=dt, theta=theta, tol=tol, max_iter=max_iter, relax=relax,
                        alert=0.1 * rmin if alert is None else alert,
-                       skin=0.5 * rmin if skin is None else skin, gravity=self.gravity)
+                       skin=0.5 * rmin if skin is None else skin, gravity=self.gravity,
+                       threads=threads)
 
         dof = np.where(kind == SPHERE, FREE, IMPOSED).astype(np.int8)
         line = np.zeros((nb, 3))

@@ -6,7 +6,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .broadphase import build_pairs, max_displacement
+from .broadphase import build_pairs_ordered, cell_sort, max_displacement
 from .narrowphase import narrowphase, tangent_frame
 
 __all__ = ["detect", "rebuild_pairs", "tangent_frame"]
@@ -28,14 +28,34 @@ def rebuild_pairs(model, state) -> None:
             f"step {state.step + 1}: the predicted positions of {bad.sum()} bodies are not "
             f"finite or beyond 1e6 m (bodies {ids[:10].tolist()}{' ...' if ids.size > 10 else ''}): the "
             f"velocities blew up; lower dt or check the loads")
+    order = np.empty(model.n_spheres, np.int32)
     while True:
-        n = build_pairs(state.position, model.body_radius, model.body_group, model.pair_law,
-                        state.link_excluded_next, model.sphere_ids, margin, state.pairs)
+        n = build_pairs_ordered(state.position, model.body_radius, model.body_group, model.pair_law,
+                                state.link_excluded_next, model.sphere_ids, margin, state.pairs,
+                                order)
         if n <= state.pairs.shape[0]:
             break
         state.pairs = np.zeros((int(n * 1.3) + 64, 2), np.int32)
     state.n_pairs = n
     state.pairs_ref = state.position.copy()
+    state.__dict__["_sphere_order"] = (state.pairs_ref, order)
+
+
+def _sphere_order(model, state) -> np.ndarray:
+    """The spheres in the cell order of the last broadphase build (the order in which the
+    narrowphase visits sphere–wall pairs).  A pure function of ``state.pairs_ref`` (the
+    positions of that build): cached beside it, recomputed after a checkpoint load or a
+    copy, with the same result."""
+    cached = state.__dict__.get("_sphere_order")
+    if cached is not None and cached[0] is state.pairs_ref:
+        return cached[1]
+    if state.pairs_ref is None or model.n_spheres < 2:
+        return model.sphere_ids
+    radius = model.body_radius[model.sphere_ids]
+    margin = model.options.alert + model.options.skin
+    order = cell_sort(state.pairs_ref, model.sphere_ids, 2.0 * float(radius.max()) + margin)[3]
+    state.__dict__["_sphere_order"] = (state.pairs_ref, order)
+    return order
 
 
 def detect(model, state) -> bool:
@@ -59,11 +79,12 @@ def detect(model, state) -> bool:
         rebuild_pairs(model, state)
         rebuilt = True
     c = state.contacts_buf
+    spheres = _sphere_order(model, state)
     while True:
         k, n_pair = narrowphase(state.position, state.vel6, model.body_radius, model.body_kind,
                         model.body_group, model.body_axis, model.body_height, model.body_caps,
                         model.pair_law, model.law_param, state.pairs, state.n_pairs,
-                        model.sphere_ids, model.wall_ids, o.alert, h,
+                        spheres, model.wall_ids, o.alert, h,
                         c.i, c.j, c.sub, c.key, c.frame, c.gap, c.mu, c.ri, c.rj)
         if k <= c.cap:
             break

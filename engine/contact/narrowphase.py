@@ -115,7 +115,8 @@ def narrowphase(pos, vel6, radius, kind, group, axis, height, caps, pair_law, la
     radius, kind, group, axis, height, caps : per-body model arrays.
     pair_law : (ng, ng) int16 ; law_param : (nlaw, 4) float64
     pairs : (cap, 2) int32 candidate sphere pairs, the first ``n_pairs`` valid.
-    sphere_ids, wall_ids : int32 body ids.
+    sphere_ids, wall_ids : int32 body ids; the sphere–wall pairs are visited in the order
+        of ``sphere_ids`` (:func:`engine.contact.detect` passes the broadphase's cell order).
     alert : float [m] ; h : float [s] time step
     o_* : output buffers of equal capacity (see :class:`engine.state.ContactBuffers`).
 

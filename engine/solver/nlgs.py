@@ -384,11 +384,73 @@ def warm_store(n, key, frame, impulse):
     return keys, glob
 
 
+@njit(cache=True)
+def layout(n, c_i, c_j, nl, link_i, link_j, loc, perm, li, lj, lli, llj):
+    """Local numbering of the bodies that the step's contacts and links touch, in the order
+    the sweep first touches them (contacts, then links).
+
+    The sweep then reads and writes contiguous local copies of ``vel6`` and ``body_dyn``
+    (gathered before, scattered after): a pure change of memory layout, every floating-point
+    operation is the same, so results are bit-identical; but body data that the contact
+    stream touches together sit together in memory whatever the user's body numbering.
+
+    Parameters
+    ----------
+    loc : (nb,) int32, all -1 on entry; left with the local index of each touched body.
+    perm : (nb,) int32 ; filled with the global id of each local index.
+    li, lj : (n,) int32 ; lli, llj : (nl,) int32 -- the local contact and link ends.
+
+    Returns
+    -------
+    int
+        Number of touched bodies (local indices 0 .. k-1).
+    """
+    k = 0
+    for a in range(n):
+        i = c_i[a]
+        if loc[i] < 0:
+            loc[i] = k
+            perm[k] = i
+            k += 1
+        j = c_j[a]
+        if loc[j] < 0:
+            loc[j] = k
+            perm[k] = j
+            k += 1
+        li[a] = loc[i]
+        lj[a] = loc[j]
+    for m in range(nl):
+        i = link_i[m]
+        if loc[i] < 0:
+            loc[i] = k
+            perm[k] = i
+            k += 1
+        j = link_j[m]
+        if loc[j] < 0:
+            loc[j] = k
+            perm[k] = j
+            k += 1
+        lli[m] = loc[i]
+        llj[m] = loc[j]
+    return k
+
+
+#: Scenes with at least this many bodies are swept on the local layout of :func:`layout`
+#: (below, every body row stays in cache anyway and the gather/scatter would only cost).
+LAYOUT_MIN_BODIES = 4096
+
+
 def solve(model, state):
     """NLGS stage of :func:`engine.step` on the contacts found by :func:`engine.contact.detect`.
 
     Warm-starts from the previous step, sweeps to ``tol``/``max_iter``, updates
     ``state.vel6`` in place and stores the impulses for the next warm start.
+
+    With ``options.threads == 1`` (the default) the sweep is the serial Gauss–Seidel of
+    :func:`iterate`; scenes of :data:`LAYOUT_MIN_BODIES` bodies or more run it on a local
+    copy of the body data in contact order (:func:`layout`; bit-identical results).  With
+    ``threads > 1`` it is the domain-decomposed Gauss–Seidel of
+    :mod:`engine.solver.parallel`.
 
     Returns
     -------
@@ -398,22 +460,55 @@ def solve(model, state):
     c = state.contacts_buf
     n = c.count
     nl = model.n_links
-    prepare(n, c.i, c.j, c.key, c.frame, c.gap, c.ri, c.rj, c.w, c.gterm, c.impulse,
-            model.body_dyn, state.vel6, state.warm_key, state.warm_impulse, o.dt)
-    wl = _EMPTY_WL
-    if nl:
-        wl = np.empty((nl, LINK_COLUMNS))
-        link_prepare(nl, model.link_i, model.link_j, model.link_ref_length, model.link_stiffness,
-                     state.link_broken, state.position, model.body_dyn, state.vel6,
-                     state.link_impulse, state.link_normal, state.link_gap, wl, o.dt)
-    it, res = iterate(n, c.n_pair, c.i, c.j, c.frame, c.w, c.gterm, c.mu, c.ri, c.rj, c.impulse,
-                      model.body_dyn, state.vel6, o.relax, o.tol, o.max_iter,
-                      nl, model.link_i, model.link_j, state.link_normal, wl,
-                      model.link_unilateral, state.link_impulse, model.link_order)
+    threads = o.threads
+    if threads == 1 and model.n_bodies < LAYOUT_MIN_BODIES:
+        it, res = _solve_on(model, state, c.i, c.j, model.body_dyn, state.vel6, state.position,
+                            model.link_i, model.link_j, 1)
+    else:
+        nb = model.n_bodies
+        loc = np.full(nb, -1, np.int32)
+        perm = np.empty(nb, np.int32)
+        li = np.empty(n, np.int32)
+        lj = np.empty(n, np.int32)
+        lli = np.empty(nl, np.int32)
+        llj = np.empty(nl, np.int32)
+        k = layout(n, c.i, c.j, nl, model.link_i, model.link_j, loc, perm, li, lj, lli, llj)
+        p = perm[:k]
+        vel = state.vel6[p]
+        pos = state.position[p] if nl else state.position[:0]
+        it, res = _solve_on(model, state, li, lj, model.body_dyn[p], vel, pos, lli, llj, threads)
+        state.vel6[p] = vel
     state.warm_key, state.warm_impulse = warm_store(n, c.key, c.frame, c.impulse)
     if nl:
         _break_links(model, state, o.dt)
     return int(it), float(res)
+
+
+def _solve_on(model, state, ci, cj, body_dyn, vel6, pos, link_i, link_j, threads):
+    """prepare, link_prepare and iterate on the given body numbering (global or local)."""
+    o = model.options
+    c = state.contacts_buf
+    n = c.count
+    nl = model.n_links
+    prepare(n, ci, cj, c.key, c.frame, c.gap, c.ri, c.rj, c.w, c.gterm, c.impulse,
+            body_dyn, vel6, state.warm_key, state.warm_impulse, o.dt)
+    wl = _EMPTY_WL
+    if nl:
+        wl = np.empty((nl, LINK_COLUMNS))
+        link_prepare(nl, link_i, link_j, model.link_ref_length, model.link_stiffness,
+                     state.link_broken, pos, body_dyn, vel6,
+                     state.link_impulse, state.link_normal, state.link_gap, wl, o.dt)
+    if threads == 1:
+        return iterate(n, c.n_pair, ci, cj, c.frame, c.w, c.gterm, c.mu, c.ri, c.rj, c.impulse,
+                       body_dyn, vel6, o.relax, o.tol, o.max_iter,
+                       nl, link_i, link_j, state.link_normal, wl,
+                       model.link_unilateral, state.link_impulse, model.link_order)
+    from .parallel import iterate_parallel
+
+    return iterate_parallel(threads, n, ci, cj, c.frame, c.w, c.gterm, c.mu, c.ri, c.rj,
+                            c.impulse, body_dyn, vel6, o.relax, o.tol, o.max_iter,
+                            nl, link_i, link_j, state.link_normal, wl,
+                            model.link_unilateral, state.link_impulse, model.link_order)
 
 
 #: Columns of the per-link work array ``wl`` filled by :func:`link_prepare`.

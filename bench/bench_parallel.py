@@ -1,0 +1,163 @@
+"""Two-core benchmark (issue 9, item 4): the domain-decomposed NLGS (``threads=2``,
+engine/solver/parallel.py) against the serial sweep on dense packings, at equal tolerance.
+
+Run:  .venv/bin/python bench/bench_parallel.py             (about 5 min on 2 cores)
+      .venv/bin/python bench/bench_parallel.py --sizes 64k
+
+Writes bench/results/parallel-YYYYMMDD-HHMM.json.
+
+For each size (bench_scaling.py's randomly numbered compressed FCC packings): compile,
+``prep`` serial steps (tol 1e-4, max_iter 200), then from copies of that same state:
+
+* **to tolerance**: one step at tol 1e-4, max_iter 2000 with threads = 1 and threads = 2:
+  wall time of the step, NLGS sweeps to tolerance, converged or not, and the largest
+  velocity difference between the two end states (relative to g h);
+* **per sweep**: ``sweeps`` sweeps exactly (tol ~ 0): wall and process CPU time per sweep
+  per contact for both, and the speed-up.
+
+Both thread counts run interleaved ``reps`` times; the figures are medians.  The machine
+may be shared: the load average is in the JSON, and a neighbour that takes one of the two
+cores removes most of the speed-up (the threads meet at a barrier every sweep phase).
+"""
+from __future__ import annotations
+
+import argparse
+import datetime as _dt
+import json
+import os
+import platform
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parent.parent
+for _p in (str(ROOT), str(ROOT / "bench")):
+    if _p not in sys.path:
+        sys.path.insert(0, _p)
+
+import numpy as np  # noqa: E402
+
+from bench_scaling import SIZES, packing  # noqa: E402
+
+
+def measure(label, prep, sweeps, reps, tol):
+    from engine import step
+
+    t0 = time.perf_counter()
+    model, state = packing(SIZES[label], "random")
+    for _ in range(prep):
+        step(model, state)
+    t_prep = time.perf_counter() - t0
+    out = dict(label=label, n_bodies=model.n_bodies, prep_steps=prep, prep_s=t_prep)
+    gh = 9.81 * model.options.dt
+    tolm = {T: model.with_options(tol=tol, max_iter=2000, threads=T) for T in (1, 2)}
+    fixed = {T: model.with_options(tol=1e-300, max_iter=sweeps, threads=T) for T in (1, 2)}
+    to_tol = {1: [], 2: []}
+    per_sweep = {1: [], 2: []}
+    per_sweep_cpu = {1: [], 2: []}
+    ends = {}
+    for r in range(reps):
+        for T in ((1, 2) if r % 2 == 0 else (2, 1)):
+            s = state.copy()
+            t = time.perf_counter()
+            st = step(tolm[T], s)
+            to_tol[T].append(dict(wall_s=time.perf_counter() - t, iterations=st.iterations,
+                                  residual=st.residual, converged=st.converged,
+                                  contacts=st.n_contacts))
+            ends[T] = s
+            s = state.copy()
+            c0 = time.process_time()
+            t = time.perf_counter()
+            st = step(fixed[T], s)
+            wall = time.perf_counter() - t
+            cpu = time.process_time() - c0
+            per_sweep[T].append(wall / (st.iterations * st.n_contacts) * 1e9)
+            per_sweep_cpu[T].append(cpu / (st.iterations * st.n_contacts) * 1e9)
+    med = lambda xs: float(np.median(xs))  # noqa: E731
+    out["n_contacts"] = to_tol[1][0]["contacts"]
+    out["to_tolerance"] = {
+        f"threads{T}": dict(step_wall_s_median=med([x["wall_s"] for x in to_tol[T]]),
+                            iterations=[x["iterations"] for x in to_tol[T]],
+                            converged=[x["converged"] for x in to_tol[T]],
+                            residual=[x["residual"] for x in to_tol[T]])
+        for T in (1, 2)}
+    out["to_tolerance"]["speedup"] = (out["to_tolerance"]["threads1"]["step_wall_s_median"]
+                                      / out["to_tolerance"]["threads2"]["step_wall_s_median"])
+    out["to_tolerance"]["iterations_ratio"] = (np.median(out["to_tolerance"]["threads2"]["iterations"])
+                                               / np.median(out["to_tolerance"]["threads1"]["iterations"]))
+    out["to_tolerance"]["max_velocity_difference_over_gh"] = float(
+        np.abs(ends[1].vel6 - ends[2].vel6).max() / gh)
+    out["per_sweep"] = dict(
+        sweeps=sweeps,
+        ns_per_contact_threads1=med(per_sweep[1]), ns_per_contact_threads2=med(per_sweep[2]),
+        cpu_ns_per_contact_threads1=med(per_sweep_cpu[1]),
+        cpu_ns_per_contact_threads2=med(per_sweep_cpu[2]),
+        speedup=med(per_sweep[1]) / med(per_sweep[2]),
+        all_threads1=per_sweep[1], all_threads2=per_sweep[2])
+    return out
+
+
+def main(argv=None):
+    ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    ap.add_argument("--sizes", default="4k,16k,64k")
+    ap.add_argument("--prep", type=int, default=3)
+    ap.add_argument("--sweeps", type=int, default=30)
+    ap.add_argument("--reps", type=int, default=3)
+    ap.add_argument("--tol", type=float, default=1e-4)
+    a = ap.parse_args(argv)
+    import numba
+
+    t_all = time.perf_counter()
+    load0 = os.getloadavg()
+    from engine import step
+
+    for T in (1, 2):  # warm-up: numba cache loads of both paths
+        m, s = packing((2, 2, 2), threads=T)
+        step(m, s)
+    res = []
+    for lab in a.sizes.split(","):
+        r = measure(lab, a.prep, a.sweeps, a.reps, a.tol)
+        res.append(r)
+        tt = r["to_tolerance"]
+        print(f"{lab:>4}: {r['n_bodies']} bodies {r['n_contacts']} contacts | to tol {a.tol:g}: "
+              f"serial {tt['threads1']['step_wall_s_median']:.3f} s "
+              f"({tt['threads1']['iterations']} sweeps), 2 threads "
+              f"{tt['threads2']['step_wall_s_median']:.3f} s ({tt['threads2']['iterations']} "
+              f"sweeps): x{tt['speedup']:.2f} | per sweep x{r['per_sweep']['speedup']:.2f} "
+              f"({r['per_sweep']['ns_per_contact_threads1']:.1f} -> "
+              f"{r['per_sweep']['ns_per_contact_threads2']:.1f} ns/contact)", flush=True)
+    load1 = os.getloadavg()
+    big = res[-1]
+    out = dict(
+        benchmark="parallel", started=_dt.datetime.now().isoformat(timespec="seconds"),
+        command="cd " + str(ROOT) + " && .venv/bin/python bench/bench_parallel.py "
+                + " ".join(sys.argv[1:] if argv is None else list(argv)),
+        machine=dict(platform=platform.platform(), nproc=os.cpu_count(),
+                     numba=numba.__version__, threading_layer=numba.threading_layer(),
+                     numba_num_threads=numba.config.NUMBA_NUM_THREADS,
+                     loadavg_start=load0, loadavg_end=load1),
+        note=(f"machine shared with other workers: load average {load0[0]:.2f} at start and "
+              f"{load1[0]:.2f} at end on {os.cpu_count()} cores, so the two threads rarely "
+              "had two free cores: these speed-ups are pessimistic (a barrier waits for the "
+              "slower thread every sweep phase).  Re-measure on an idle machine with the "
+              "command above."),
+        git=subprocess.run(["git", "-C", str(ROOT), "rev-parse", "HEAD"], capture_output=True,
+                           text=True).stdout.strip(),
+        params=dict(prep_steps=a.prep, sweeps=a.sweeps, reps=a.reps, tol=a.tol),
+        sizes=res,
+        summary=dict(target_speedup=1.6, case=big["label"],
+                     speedup_to_tolerance=big["to_tolerance"]["speedup"],
+                     speedup_per_sweep=big["per_sweep"]["speedup"],
+                     iterations_ratio=big["to_tolerance"]["iterations_ratio"],
+                     target_met=big["to_tolerance"]["speedup"] >= 1.6),
+        total_wall_s=time.perf_counter() - t_all)
+    stamp = _dt.datetime.now().strftime("%Y%m%d-%H%M")
+    path = ROOT / "bench" / "results" / f"parallel-{stamp}.json"
+    path.write_text(json.dumps(out, indent=1))
+    print(f"wrote {path.relative_to(ROOT)}")
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())

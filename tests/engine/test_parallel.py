@@ -1,0 +1,222 @@
+"""Parallel NLGS (Options.threads, engine.solver.parallel) and the cache-friendly layout of
+the serial sweep (engine.solver.nlgs.layout, the broadphase's cell order)."""
+import numpy as np
+import pytest
+
+from engine import Scene, laws, step
+from engine.model import Options
+from engine.solver import nlgs
+
+from tests.helpers import G, box_pile
+
+
+def fcc_packing(cells=(5, 5, 4), seed=7, shuffle=True, mu=0.3, tol=1e-10, max_iter=20000,
+                threads=1):
+    """Slightly compressed FCC packing on the floor of a box (every lattice neighbour is a
+    contact), bodies numbered at random when ``shuffle``."""
+    rng = np.random.default_rng(seed)
+    r0 = 1e-3
+    d = 2.0 * r0 * (1.0 - 0.0025)
+    a = np.sqrt(2.0) * d
+    basis = np.array([[0, 0, 0], [0.5, 0.5, 0], [0.5, 0, 0.5], [0, 0.5, 0.5]])
+    g = np.stack(np.meshgrid(*[np.arange(k) for k in cells], indexing="ij"), -1).reshape(-1, 1, 3)
+    c = ((g + basis[None]) * a).reshape(-1, 3) + r0
+    if shuffle:
+        c = c[rng.permutation(len(c))]
+    r = r0 * (1.0 + rng.uniform(-0.002, 0.002, len(c)))
+    s = Scene(gravity=(0, 0, -G))
+    s.add_spheres(c, r, density=2650.0)
+    hi = c.max(axis=0) + r0
+    hi[2] *= 3.0
+    s.add_box((0, 0, 0), hi, group="wall")
+    s.interact("sand", "sand", laws.Coulomb(mu=mu))
+    s.interact("sand", "wall", laws.Coulomb(mu=mu))
+    return s.compile(dt=1e-4, tol=tol, max_iter=max_iter, threads=threads)
+
+
+# -- option ------------------------------------------------------------------------------
+def test_serial_is_the_default():
+    assert Options(dt=1e-3, alert=0.0, skin=1e-3).threads == 1
+    model, _ = fcc_packing(cells=(2, 2, 2))
+    assert model.options.threads == 1
+
+
+@pytest.mark.parametrize("bad", [0, -1, 65, 2.5, "two", True, None])
+def test_threads_is_validated(bad):
+    with pytest.raises(ValueError, match="threads"):
+        Options(dt=1e-3, alert=0.0, skin=1e-3, threads=bad)
+    s = Scene()
+    s.add_spheres([[0, 0, 1e-3]], 1e-3, density=1000.0)
+    with pytest.raises(ValueError, match="threads"):
+        s.compile(dt=1e-4, threads=bad)
+    model, _ = fcc_packing(cells=(2, 2, 2))
+    with pytest.raises(ValueError, match="threads"):
+        model.with_options(threads=bad)
+
+
+# -- serial layout: a change of memory layout only ---------------------------------------
+def test_local_layout_is_bit_identical(monkeypatch):
+    """The serial sweep on the contact-ordered local copy of the body data gives exactly
+    the same bits as on the global arrays."""
+    model, state = fcc_packing(tol=1e-4, max_iter=300)
+    other = state.copy()
+    monkeypatch.setattr(nlgs, "LAYOUT_MIN_BODIES", 10**9)  # global arrays
+    for _ in range(5):
+        a = step(model, state)
+    monkeypatch.setattr(nlgs, "LAYOUT_MIN_BODIES", 0)  # local layout
+    for _ in range(5):
+        b = step(model, other)
+    assert (a.iterations, a.residual) == (b.iterations, b.residual)
+    assert np.array_equal(state.vel6, other.vel6)
+    assert np.array_equal(state.position, other.position)
+    k = state.contacts_buf.count
+    assert np.array_equal(state.contacts_buf.impulse[:k], other.contacts_buf.impulse[:k])
+
+
+def test_cell_order_cache_is_a_function_of_the_last_build():
+    """The sphere order of the narrowphase's wall loop, recomputed after a copy or a load
+    (cache dropped), is that of the build: the run continues bit for bit."""
+    model, state = fcc_packing(tol=1e-4, max_iter=300)
+    for _ in range(3):
+        step(model, state)
+    other = state.copy()
+    other.__dict__.pop("_sphere_order", None)
+    for _ in range(3):
+        step(model, state)
+        step(model, other)
+    assert np.array_equal(state.vel6, other.vel6)
+
+
+# -- parallel: same physics --------------------------------------------------------------
+def _net_impulse(model, state):
+    """Per-body resultant of the contact impulses (global frame), unique at convergence
+    even where the contact impulses are not (hyperstatic packings)."""
+    c = state.contacts
+    net = np.zeros((model.n_bodies, 3))
+    np.add.at(net, c.i, c.impulse_global)
+    np.add.at(net, c.j, -c.impulse_global)
+    return net
+
+
+@pytest.fixture(scope="module")
+def pile_states():
+    """A 300-grain pile (frictionless walls) while it lands (step 150) and at rest (700)."""
+    model, state, box, _ = box_pile(300, 12e-3, tol=1e-6, max_iter=2000)
+    out = {}
+    for k in range(1, 701):
+        step(model, state)
+        if k in (150, 700):
+            out[k] = state.copy()
+    return model, out
+
+
+@pytest.mark.parametrize("at", [150, 700])
+@pytest.mark.parametrize("threads", [2, 3, 4])
+def test_parallel_step_matches_serial_within_tolerance(pile_states, threads, at):
+    """From the same state, one converged step (tol 1e-10) on ``threads`` domains gives the
+    serial velocities and per-body contact impulses to the solver tolerance, in about the
+    same number of sweeps."""
+    model, states = pile_states
+    tight = model.with_options(tol=1e-10, max_iter=50000)
+    par = tight.with_options(threads=threads)
+    a_state, b_state = states[at].copy(), states[at].copy()
+    a = step(tight, a_state)
+    b = step(par, b_state)
+    assert a.converged and b.converged
+    assert b.iterations <= 1.5 * a.iterations + 10
+    gh = G * model.options.dt  # the velocity that one step of gravity gives
+    np.testing.assert_allclose(b_state.vel6, a_state.vel6, rtol=0, atol=1e-6 * gh)
+    na, nb_ = _net_impulse(tight, a_state), _net_impulse(par, b_state)
+    np.testing.assert_allclose(nb_, na, rtol=0, atol=1e-8 * np.abs(na).max())
+    # same contacts, in the same buffer order
+    k = a_state.contacts_buf.count
+    assert k > 100
+    assert np.array_equal(a_state.contacts_buf.key[:k], b_state.contacts_buf.key[:k])
+
+
+def test_parallel_contact_impulses_equal_serial_on_an_isostatic_column():
+    """A column of spheres on a floor (unique impulses): every contact impulse equals the
+    serial one within the solver tolerance."""
+    r = 0.005
+    out = []
+    for threads in (1, 2):
+        s = Scene(gravity=(0, 0, -G))
+        s.add_plane(group="floor")
+        s.add_spheres([[0, 0, r + 2 * r * k] for k in range(12)], r, density=2650.0)
+        s.interact("sand", "sand", laws.Coulomb(mu=0.5))
+        s.interact("sand", "floor", laws.Coulomb(mu=0.5))
+        model, state = s.compile(dt=1e-4, tol=1e-10, max_iter=20000, threads=threads)
+        for _ in range(50):
+            st = step(model, state)
+            assert st.converged
+        c = state.contacts
+        order = np.argsort(c.i * 100 + c.j)
+        out.append(c.impulse[order])
+    np.testing.assert_allclose(out[1], out[0], rtol=1e-8, atol=1e-8 * np.abs(out[0]).max())
+
+
+def test_parallel_pile_floor_reaction_is_the_weight():
+    """A 300-grain pile deposited on 2 threads: at rest the floor carries the whole weight
+    (rel 1e-3, as in test_contact_physics)."""
+    model, state, box, _ = box_pile(300, 12e-3, tol=1e-6, max_iter=2000)
+    model = model.with_options(threads=2)
+    floor = box[0]
+    ke = []
+    for _ in range(800):
+        st = step(model, state)
+        v = state.velocity[model.sphere_ids]
+        ke.append(0.5 * model.body_mass[model.sphere_ids] @ (v * v).sum(1))
+    assert st.converged
+    assert ke[-1] < 1e-6 * max(ke)  # at rest
+    c = state.contacts
+    weight = model.body_mass[model.sphere_ids].sum() * G
+    assert c.normal_force[c.j == floor].sum() == pytest.approx(weight, rel=1e-3)
+
+
+def test_parallel_is_deterministic():
+    model, state = fcc_packing(tol=1e-4, max_iter=300, threads=2)
+    other = state.copy()
+    for _ in range(3):
+        step(model, state)
+        step(model, other)
+    assert np.array_equal(state.vel6, other.vel6)
+
+
+def test_parallel_with_wire_and_driven_wall():
+    """Links (swept on one thread after the contacts) and a pressure-driven lid (its
+    contacts are shared by every domain) give the serial result within tolerance."""
+    rng = np.random.default_rng(3)
+    r = 1e-3
+    radii = r * (1 - 0.002 * rng.uniform(0, 1, 108))
+    res = []
+    for threads in (1, 2):
+        s = Scene(gravity=(0, 0, -G))
+        pts = np.stack(np.meshgrid(np.arange(6), np.arange(6), np.arange(3), indexing="ij"),
+                       -1).reshape(-1, 3) * 2.0 * r + r
+        pts[:, 2] += 1e-5
+        s.add_spheres(pts, radii, density=2650.0)
+        top = pts[:, 2].max() + r
+        wire = np.array([[1.99 * r * k + 1.02 * r, 5 * r, top + r + 2e-5] for k in range(6)])
+        beads = s.add_wire(wire, radius=0.98 * r, density=1400.0, law=laws.ElasticWire(stiffness=100.0))
+        s.fix([beads[0], beads[-1]])
+        s.add_box((0, 0, 0), (12 * r, 12 * r, 0.05), group="wall")
+        lid = s.add_plane(point=(0, 0, top + 2 * r + 4e-5), normal=(0, 0, -1), group="lid")
+        s.drive(lid, pressure=10.0, mass=1e-3, area=(12 * r) ** 2)
+        for g in ("sand", "wire"):
+            s.interact(g, "wall", laws.Coulomb(mu=0.0))
+            s.interact(g, "lid", laws.Coulomb(mu=0.0))
+        s.interact("sand", "sand", laws.Coulomb(mu=0.3))
+        s.interact("wire", "sand", laws.Coulomb(mu=0.3))
+        s.interact("wire", "wire", laws.Coulomb(mu=0.3))
+        model, state = s.compile(dt=1e-4, tol=1e-8, max_iter=50000, threads=threads)
+        for _ in range(15):
+            st = step(model, state)
+            assert st.converged
+        res.append(state)
+    a, b = res
+    assert np.sum(a.contacts.j == lid) >= 3 and a.link_impulse.max() > 0.0
+    assert np.sum(b.contacts.j == lid) == np.sum(a.contacts.j == lid)
+    np.testing.assert_allclose(b.position, a.position, rtol=0, atol=1e-9)
+    assert abs(b.position[lid, 2] - a.position[lid, 2]) < 1e-9
+    np.testing.assert_allclose(b.link_impulse, a.link_impulse, rtol=0,
+                               atol=1e-6 * np.abs(a.link_impulse).max() + 1e-15)

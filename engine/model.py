@@ -9,7 +9,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 import numpy as np
-from pydantic import BaseModel, ConfigDict, Field, field_validator
+from pydantic import BaseModel, ConfigDict, Field, field_validator, model_validator
 
 #: ``body_kind`` codes.
 SPHERE, PLANE, CYLINDER = 0, 1, 2
@@ -51,6 +51,10 @@ class Options(BaseModel):
         and is rebuilt when a body has moved more than skin/2 since the last build.
     gravity : tuple of 3 floats
         Gravity [m/s²] applied to free spheres.
+    anderson : int
+        Depth m of the Anderson acceleration of the NLGS sweeps, in [0, 16] (0: plain
+        Gauss–Seidel).  The convergence test is the same (:mod:`engine.solver.anderson`);
+        serial solver only (``threads == 1``).
     threads : int
         NLGS threads, in [1, 64].  1 (the default): the serial Gauss–Seidel sweep.  T > 1:
         the domain-decomposed Gauss–Seidel of :mod:`engine.solver.parallel` (T domains swept
@@ -69,13 +73,22 @@ class Options(BaseModel):
     skin: float = Field(gt=0.0, allow_inf_nan=False)
     gravity: tuple[float, float, float] = (0.0, 0.0, -9.81)
     threads: int = Field(1, ge=1, le=64)
+    anderson: int = Field(0, ge=0, le=16)
 
-    @field_validator("threads", mode="before")
+    @field_validator("threads", "anderson", mode="before")
     @classmethod
-    def _threads_not_bool(cls, v):
+    def _int_not_bool(cls, v, info):
         if isinstance(v, (bool, np.bool_)):
-            raise ValueError("threads must be an integer in [1, 64], not a bool")
+            rng = "[1, 64]" if info.field_name == "threads" else "[0, 16]"
+            raise ValueError(f"{info.field_name} must be an integer in {rng}, not a bool")
         return v
+
+    @model_validator(mode="after")
+    def _anderson_serial(self):
+        if self.anderson > 0 and self.threads > 1:
+            raise ValueError(f"anderson = {self.anderson} needs threads = 1 (the acceleration "
+                             f"runs on the serial solver); got threads = {self.threads}")
+        return self
 
 
 @dataclass(frozen=True)

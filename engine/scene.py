@@ -434,7 +434,7 @@ class Scene:
 
     def compile(self, dt: float, theta: float = 0.5, tol: float = 1e-4, max_iter: int = 1000,
                 relax: float = 1.0, alert: float | None = None, skin: float | None = None,
-                threads: int = 1):
+                threads: int = 1, anderson: int = 0):
         """Freeze the scene into a :class:`Model` and its initial :class:`State`.
 
         Parameters
@@ -448,6 +448,9 @@ class Scene:
             0.5 × smallest radius).
         threads : int in [1, 64]
             NLGS threads (:attr:`engine.model.Options.threads`; 1 = serial, the default).
+        anderson : int in [0, 16]
+            Depth of the Anderson acceleration of the NLGS sweeps
+            (:attr:`engine.model.Options.anderson`).
 
         Raises
         ------
@@ -466,7 +469,7 @@ class Scene:
         opts = Options(dt=dt, theta=theta, tol=tol, max_iter=max_iter, relax=relax,
                        alert=0.1 * rmin if alert is None else alert,
                        skin=0.5 * rmin if skin is None else skin, gravity=self.gravity,
-                       threads=threads)
+                       threads=threads, anderson=anderson)
 
         dof = np.where(kind == SPHERE, FREE, IMPOSED).astype(np.int8)
         line = np.zeros((nb, 3))

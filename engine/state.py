@@ -203,10 +203,16 @@ class State:
         return ContactsView(self)
 
     def copy(self) -> "State":
-        """A deep copy (for restarts and comparisons)."""
+        """A deep copy (for restarts and comparisons), without the solver's scratch
+        buffers (``_anderson``: :class:`engine.solver.anderson.Workspace`)."""
         import copy
 
-        return copy.deepcopy(self)
+        scratch = self.__dict__.pop("_anderson", None)
+        try:
+            return copy.deepcopy(self)
+        finally:
+            if scratch is not None:
+                self._anderson = scratch
 
 
 class ContactsView:

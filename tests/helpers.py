@@ -59,3 +59,45 @@ def box_pile(n, width, *, seed=7, theta=0.5, dt=2e-4, tol=1e-8, max_iter=5000, m
     s.interact("sand", "side", laws.Coulomb(mu=wall_mu))
     model, state = s.compile(dt=dt, theta=theta, tol=tol, max_iter=max_iter)
     return model, state, box, radii
+
+
+def net_contact_impulse(model, state):
+    """Per-body resultant of the contact impulses (global frame), unique at convergence
+    even where the contact impulses are not (hyperstatic packings)."""
+    c = state.contacts
+    net = np.zeros((model.n_bodies, 3))
+    np.add.at(net, c.i, c.impulse_global)
+    np.add.at(net, c.j, -c.impulse_global)
+    return net
+
+
+def wire_under_lid(**compile_kw):
+    """A 6 x 6 x 3 lattice of grains (r = 1 mm) in a box, an elastic wire of 6 beads with
+    fixed ends lying on it and a pressure-driven lid (10 Pa) above: links, a LINE body and
+    all contact kinds in one small scene.  Returns (model, state, lid id)."""
+    from engine import Scene, laws
+
+    rng = np.random.default_rng(3)
+    r = 1e-3
+    radii = r * (1 - 0.002 * rng.uniform(0, 1, 108))
+    s = Scene(gravity=(0, 0, -G))
+    pts = np.stack(np.meshgrid(np.arange(6), np.arange(6), np.arange(3), indexing="ij"),
+                   -1).reshape(-1, 3) * 2.0 * r + r
+    pts[:, 2] += 1e-5
+    s.add_spheres(pts, radii, density=2650.0)
+    top = pts[:, 2].max() + r
+    wire = np.array([[1.99 * r * k + 1.02 * r, 5 * r, top + r + 2e-5] for k in range(6)])
+    beads = s.add_wire(wire, radius=0.98 * r, density=1400.0,
+                       law=laws.ElasticWire(stiffness=100.0))
+    s.fix([beads[0], beads[-1]])
+    s.add_box((0, 0, 0), (12 * r, 12 * r, 0.05), group="wall")
+    lid = s.add_plane(point=(0, 0, top + 2 * r + 4e-5), normal=(0, 0, -1), group="lid")
+    s.drive(lid, pressure=10.0, mass=1e-3, area=(12 * r) ** 2)
+    for g in ("sand", "wire"):
+        s.interact(g, "wall", laws.Coulomb(mu=0.0))
+        s.interact(g, "lid", laws.Coulomb(mu=0.0))
+    s.interact("sand", "sand", laws.Coulomb(mu=0.3))
+    s.interact("wire", "sand", laws.Coulomb(mu=0.3))
+    s.interact("wire", "wire", laws.Coulomb(mu=0.3))
+    model, state = s.compile(**{"dt": 1e-4, "tol": 1e-8, "max_iter": 50000, **compile_kw})
+    return model, state, lid

@@ -57,6 +57,8 @@ class SolverParams(_Strict):
     theta: float = Field(0.5, ge=0.5, le=1.0)
     tol: float = Field(3e-4, gt=0, lt=1)
     max_iter: int = Field(1000, ge=1)
+    anderson: int = Field(4, ge=0, le=16,
+                          description="NLGS Anderson acceleration depth (0: plain Gauss-Seidel)")
     mu: float = Field(0.5, ge=0, le=10)
     mu_wire: float = Field(0.3, ge=0, le=10)
     max_nonconverged: float = Field(0.25, ge=0, le=1)

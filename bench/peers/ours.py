@@ -34,8 +34,10 @@ import common  # noqa: E402
 P = common.PARAMS
 
 
-def build(state_file: str):
-    """Our Scene from a state file: spheres with their velocities and spins, open box."""
+def build(state_file: str, dt: float | None = None, anderson: int | None = None):
+    """Our Scene from a state file: spheres with their velocities and spins, open box.
+    ``dt`` and ``anderson`` override the common parameters' time step and the engine's
+    default acceleration depth."""
     st = common.load_state(state_file)
     s = Scene(gravity=(0.0, 0.0, -P["gravity"]))
     s.add_spheres(st["position"], st["radius"], density=P["density"], group="sand",
@@ -44,7 +46,9 @@ def build(state_file: str):
     s.interact("sand", "sand", laws.Coulomb(mu=P["mu"]))
     s.interact("sand", "wall", laws.Coulomb(mu=P["mu"]))
     t0 = time.perf_counter()
-    model, state = s.compile(dt=P["dt"], theta=P["theta"], tol=P["tol"], max_iter=P["max_iter"])
+    extra = {} if anderson is None else dict(anderson=anderson)
+    model, state = s.compile(dt=P["dt"] if dt is None else dt, theta=P["theta"], tol=P["tol"],
+                             max_iter=P["max_iter"], **extra)
     return st, model, state, time.perf_counter() - t0
 
 
@@ -143,7 +147,7 @@ def cmd_steps(a):
 
 def cmd_rest(a):
     warm_s = warm()
-    st, model, state, compile_s = build(a.state)
+    st, model, state, compile_s = build(a.state, a.dt, a.anderson)
     sph = model.sphere_ids
     rad = model.body_radius[sph]
     m, inertia = common.masses(rad, P["density"])
@@ -172,6 +176,7 @@ def cmd_rest(a):
     n = len(rec["wall_s"])
     _finish(a, st, model, state, rec, dict(
         mode="rest", state=Path(a.state).name, rest_ratio=a.rest_ratio, at_rest=at_rest,
+        dt_s=model.options.dt, tol=model.options.tol, anderson=model.options.anderson,
         steps_done=n, simulated_time_s=float(state.time), wall_s=wall, cap_s=a.cap_s,
         cap_hit=not at_rest, kinetic_energy_peak_J=peak,
         kinetic_energy_peak_step=int(np.argmax(rec["kinetic_energy_J"])) + 1,
@@ -201,6 +206,9 @@ def main():
     p.add_argument("--cap-s", type=float, default=600.0)
     p.add_argument("--max-steps", type=int, default=200000)
     p.add_argument("--rest-ratio", type=float, default=1e-4)
+    p.add_argument("--dt", type=float, default=None, help="time step [s] (default: the common one)")
+    p.add_argument("--anderson", type=int, default=None,
+                   help="NLGS Anderson depth (default: the engine's default)")
     a = ap.parse_args()
     numba.set_num_threads(1)
     {"init": cmd_init, "steps": cmd_steps, "rest": cmd_rest}[a.cmd](a)

@@ -15,7 +15,9 @@ Both run two stages on a geometric sample (:mod:`engine.prep.samples`), under gr
 The default NLGS tolerance is 3e-4, not the engine's 1e-4: on these confined samples the
 residual stagnates between 1e-4 and 2.5e-4 (measured on the cylinder at scale 0.05: 1 041 of
 1 500 isotropic steps hit 1 000 sweeps at tol = 1e-4, relaxation 0.7 did not help; 186 of 800
-at 3e-4, nearly all during the pressure ramp).
+at 3e-4, nearly all during the pressure ramp).  ``anderson`` (default 4) is the depth of
+the NLGS acceleration (:mod:`engine.solver.anderson`, docs/speed.md); 0 gives plain
+Gauss–Seidel.
 
 Between the stages the top wall's drive is switched (:meth:`engine.model.Model.with_drive`).
 A velocity-driven (kinematic) top wall in stage 1 was tried first: on a jammed packing of
@@ -92,7 +94,8 @@ def cylinder_triaxial(scale: float = 0.05, *, pressure: float = 15e3, wire: bool
                       wire_law=None, axial_strain: float = 0.1, strain_rate: float | None = None,
                       target_I: float = 5e-4, allow_dynamic: bool = False, dt: float = 5e-5,
                       theta: float = 0.5, tol: float = 3e-4, max_iter: int = 1000,
-                      relax: float = 1.0, mu: float = 0.5, mu_wall: float = 0.5, mu_wire: float = 0.3,
+                      relax: float = 1.0, anderson: int = 4, mu: float = 0.5, mu_wall: float = 0.5,
+                      mu_wire: float = 0.3,
                       iso_tol: float = 0.02, iso_hold: int = 5, iso_max_steps: int = 4000,
                       confine_every: int = 10, record_every: int = 10, frames: int = 100,
                       torus_strains=(0.02, 0.05, 0.1), max_nonconverged: float = 0.25,
@@ -144,7 +147,8 @@ def cylinder_triaxial(scale: float = 0.05, *, pressure: float = 15e3, wire: bool
              area=lambda model, state: math.pi * conf.radius ** 2)
     sc.fix(floor)
     _laws_for(sc, mu, mu_wall, mu_wire, wire)
-    model, state = sc.compile(dt=dt, theta=theta, tol=tol, max_iter=max_iter, relax=relax)
+    model, state = sc.compile(dt=dt, theta=theta, tol=tol, max_iter=max_iter, relax=relax,
+                              anderson=anderson)
     conf.apply(model, state)
     x_ref = {}
     stage = {"value": 0}
@@ -218,7 +222,8 @@ def cylinder_triaxial(scale: float = 0.05, *, pressure: float = 15e3, wire: bool
     res = _result("cylinder_triaxial", tri, H0, history)
     res.params = dict(scale=scale, pressure=p, wire=wire, wire_law=repr(law), axial_strain=eps_max,
                       strain_rate=rate, inertial_number=I, loading_velocity=rate * H0, dt=dt,
-                      theta=theta, tol=tol, max_iter=max_iter, mu=mu, mu_wall=mu_wall,
+                      theta=theta, tol=tol, max_iter=max_iter, anderson=anderson, mu=mu,
+                      mu_wall=mu_wall,
                       mu_wire=mu_wire, seed=seed, n_sand=int(sample.sand_radii.size),
                       n_beads=sample.n_beads, d_mean=d_mean, iso_reached=iso_reached)
     if len(res.time):
@@ -334,8 +339,8 @@ def box_triaxial(scale: float = 0.05, *, pressure: float = 15e3, wire: bool = Tr
                  wire_law=None, bead_radius: float | None = None, axial_strain: float = 0.05,
                  strain_rate: float | None = None, target_I: float = 5e-4,
                  allow_dynamic: bool = False, dt: float = 5e-5, theta: float = 0.5,
-                 tol: float = 3e-4, max_iter: int = 1000, relax: float = 1.0, mu: float = 0.5,
-                 mu_wall: float = 0.0,
+                 tol: float = 3e-4, max_iter: int = 1000, relax: float = 1.0,
+                 anderson: int = 4, mu: float = 0.5, mu_wall: float = 0.0,
                  mu_wire: float = 0.3, wall_mass: float | None = None, iso_tol: float = 0.02,
                  iso_hold: int = 5, iso_max_steps: int = 4000, check_every: int = 10,
                  ramp_steps: int = 400,
@@ -397,7 +402,8 @@ def box_triaxial(scale: float = 0.05, *, pressure: float = 15e3, wire: bool = Tr
     sc.drive(top, pressure=p_now, mass=wall_mass, area=top_area)
     sc.fix(floor)
     _laws_for(sc, mu, mu_wall, mu_wire, wire)
-    model, state = sc.compile(dt=dt, theta=theta, tol=tol, max_iter=max_iter, relax=relax)
+    model, state = sc.compile(dt=dt, theta=theta, tol=tol, max_iter=max_iter, relax=relax,
+                              anderson=anderson)
     stage = {"value": 0}
     stage_of = []
     walls = np.array([*sides, top])
@@ -479,7 +485,8 @@ def box_triaxial(scale: float = 0.05, *, pressure: float = 15e3, wire: bool = Tr
     res.params = dict(scale=scale, pressure=p, wire=wire, wire_law=repr(law),
                       bead_radius=sample.bead_radius, axial_strain=eps_max, strain_rate=rate,
                       inertial_number=I, loading_velocity=rate * H0, dt=dt, theta=theta,
-                      tol=tol, max_iter=max_iter, mu=mu, mu_wall=mu_wall, mu_wire=mu_wire,
+                      tol=tol, max_iter=max_iter, anderson=anderson, mu=mu, mu_wall=mu_wall,
+                      mu_wire=mu_wire,
                       wall_mass=wall_mass, seed=seed, n_sand=int(sample.sand_radii.size),
                       n_beads=sample.n_beads, d_mean=d_mean, iso_reached=iso_reached)
     res.extra["isotropic"] = dict(time=iso.get("time"), mean_stress=_mean(iso.get("stress")),

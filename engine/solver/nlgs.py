@@ -24,25 +24,32 @@ from .local import coulomb
 
 
 @njit(cache=True, inline="always")
-def _apply(i, j, ri, rj, px, py, pz, pt, ps, tx, ty, tz, sx, sy, sz, body_dyn, vel6, line_j):
+def _apply(i, j, ri, rj, px, py, pz, pt, ps, tx, ty, tz, sx, sy, sz, body_dyn, vel6, line_j,
+           guard=False):
     """Add the impulse (global P, local tangential pt, ps) to body i and -P to body j.
 
-    ``line_j`` (a compile-time constant at each call site) says whether j may be a LINE
-    body (a force- or pressure-driven wall), which moves along its line only.
+    ``line_j`` and ``guard`` are compile-time constants at each call site.  ``line_j`` says
+    whether j may be a LINE body (a force- or pressure-driven wall), which moves along its
+    line only.  ``guard`` (the parallel sweep, :mod:`engine.solver.parallel`) writes only
+    mobile bodies, so that an immobile wall shared by two domains is never written by two
+    threads; the arithmetic on mobile bodies is the same.
     """
     # rotation: ω_i += I_i⁻¹ (a_i × P), a_i = -r_i n  ->  -r_i/I_i (pt s - ps t); same sign on j
     qx = pt * sx - ps * tx
     qy = pt * sy - ps * ty
     qz = pt * sz - ps * tz
     im = body_dyn[i, DYN_INV_MASS]
-    ci = -ri * body_dyn[i, DYN_INV_INERTIA]
-    vel6[i, 0] += im * px
-    vel6[i, 1] += im * py
-    vel6[i, 2] += im * pz
-    vel6[i, 3] += ci * qx
-    vel6[i, 4] += ci * qy
-    vel6[i, 5] += ci * qz
+    if not guard or im != 0.0:
+        ci = -ri * body_dyn[i, DYN_INV_INERTIA]
+        vel6[i, 0] += im * px
+        vel6[i, 1] += im * py
+        vel6[i, 2] += im * pz
+        vel6[i, 3] += ci * qx
+        vel6[i, 4] += ci * qy
+        vel6[i, 5] += ci * qz
     im = body_dyn[j, DYN_INV_MASS]
+    if guard and im == 0.0:
+        return
     if line_j and body_dyn[j, DYN_LINE] != 0.0:
         lx = body_dyn[j, DYN_LX]
         ly = body_dyn[j, DYN_LY]
@@ -138,9 +145,10 @@ def prepare(n, c_i, c_j, key, frame, gap, ri, rj, w, gterm, impulse, body_dyn, v
 
 
 @njit(cache=True, inline="always")
-def _contact(a, c_i, c_j, frame, w, gterm, mu, ri, rj, impulse, body_dyn, vel6, relax, line_j):
+def _contact(a, c_i, c_j, frame, w, gterm, mu, ri, rj, impulse, body_dyn, vel6, relax, line_j,
+             guard=False):
     """Solve contact ``a`` given the others (one Gauss–Seidel update); returns its two
-    terms of the Quad norm, (‖W Δp‖², ‖W p‖²)."""
+    terms of the Quad norm, (‖W Δp‖², ‖W p‖²).  ``line_j``, ``guard``: see :func:`_apply`."""
     wn = w[a, 0]
     if wn <= 0.0:  # both bodies immobile
         return 0.0, 0.0
@@ -184,7 +192,8 @@ def _contact(a, c_i, c_j, frame, w, gterm, mu, ri, rj, impulse, body_dyn, vel6, 
     impulse[a, 1] = pt
     impulse[a, 2] = ps
     _apply(i, j, r_i, r_j, dpn * nx + dpt * tx + dps * sx, dpn * ny + dpt * ty + dps * sy,
-           dpn * nz + dpt * tz + dps * sz, dpt, dps, tx, ty, tz, sx, sy, sz, body_dyn, vel6, line_j)
+           dpn * nz + dpt * tz + dps * sz, dpt, dps, tx, ty, tz, sx, sy, sz, body_dyn, vel6, line_j,
+           guard)
     return ((wn * dpn) ** 2 + (wt * dpt) ** 2 + (wt * dps) ** 2,
             (wn * pn) ** 2 + (wt * pt) ** 2 + (wt * ps) ** 2)
 
@@ -356,17 +365,25 @@ def iterate(n, n_pair, c_i, c_j, frame, w, gterm, mu, ri, rj, impulse, body_dyn,
         return 0, 0.0
     res = 0.0
     for it in range(max_iter):
-        num, den = sweep(n, n_pair, c_i, c_j, frame, w, gterm, mu, ri, rj, impulse, body_dyn, vel6,
-                         relax)
-        if nl > 0:
-            lnum, lden = link_sweep(nl, link_i, link_j, l_normal, wl, l_unilateral, l_impulse,
-                                    body_dyn, vel6, relax, l_order)
-            num += lnum
-            den += lden
-        res = np.sqrt(num / den) if den > 0.0 else 0.0
+        res = sweep_all(n, n_pair, c_i, c_j, frame, w, gterm, mu, ri, rj, impulse, body_dyn, vel6,
+                        relax, nl, link_i, link_j, l_normal, wl, l_unilateral, l_impulse, l_order)
         if res < tol:
             return it + 1, res
     return max_iter, res
+
+
+@njit(cache=True)
+def sweep_all(n, n_pair, c_i, c_j, frame, w, gterm, mu, ri, rj, impulse, body_dyn, vel6, relax,
+              nl, link_i, link_j, l_normal, wl, l_unilateral, l_impulse, l_order):
+    """One sweep of the contacts then the links; returns the Quad residual of the sweep."""
+    num, den = sweep(n, n_pair, c_i, c_j, frame, w, gterm, mu, ri, rj, impulse, body_dyn, vel6,
+                     relax)
+    if nl > 0:
+        lnum, lden = link_sweep(nl, link_i, link_j, l_normal, wl, l_unilateral, l_impulse,
+                                body_dyn, vel6, relax, l_order)
+        num += lnum
+        den += lden
+    return np.sqrt(num / den) if den > 0.0 else 0.0
 
 
 @njit(cache=True)
@@ -498,6 +515,15 @@ def _solve_on(model, state, ci, cj, body_dyn, vel6, pos, link_i, link_j, threads
         link_prepare(nl, link_i, link_j, model.link_ref_length, model.link_stiffness,
                      state.link_broken, pos, body_dyn, vel6,
                      state.link_impulse, state.link_normal, state.link_gap, wl, o.dt)
+    if threads == 1 and o.anderson > 0:
+        from .anderson import Workspace, iterate_on
+
+        ws = getattr(state, "_anderson", None)
+        if ws is None:
+            ws = state._anderson = Workspace()
+        return iterate_on(ws, o.anderson, n, c.n_pair, ci, cj, c, body_dyn, vel6, o.relax, o.tol,
+                          o.max_iter, nl, link_i, link_j, state.link_normal, wl,
+                          model.link_unilateral, state.link_impulse, model.link_order)
     if threads == 1:
         return iterate(n, c.n_pair, ci, cj, c.frame, c.w, c.gterm, c.mu, c.ri, c.rj, c.impulse,
                        body_dyn, vel6, o.relax, o.tol, o.max_iter,

@@ -60,8 +60,11 @@ def test_triaxial_stage(name, request):
 
 
 def test_box_strains_and_halves(box):
-    e = box.extra["best_fit_strain"]["all"]
-    # best-fit strain (Eq. 19) of the particles follows the walls' axial strain (compression)
+    # best-fit strain (Eq. 19) of the sand skeleton follows the walls' axial strain
+    # (compression).  Not "all" particles: the light wire beads slip between the grains and
+    # need not follow the skeleton; with them the ratio to the walls' strain was 0.68-1.18
+    # over seeds 0-3 and both solvers (anderson 0 and 4), against 0.79-1.12 for the sand alone.
+    e = box.extra["best_fit_strain"]["sand"]
     assert e.tensor[2, 2] == pytest.approx(-box.axial_strain[-1], rel=0.25)
     assert box.extra["wall_stress"].shape == (len(box.time), 5)
     assert "wire_principal_upper" in box.extra

@@ -7,7 +7,7 @@ from engine import Scene, laws, step
 from engine.model import Options
 from engine.solver import nlgs
 
-from tests.helpers import G, box_pile
+from tests.helpers import G, box_pile, net_contact_impulse, wire_under_lid
 
 
 def fcc_packing(cells=(5, 5, 4), seed=7, shuffle=True, mu=0.3, tol=1e-10, max_iter=20000,
@@ -88,28 +88,6 @@ def test_cell_order_cache_is_a_function_of_the_last_build():
 
 
 # -- parallel: same physics --------------------------------------------------------------
-def _net_impulse(model, state):
-    """Per-body resultant of the contact impulses (global frame), unique at convergence
-    even where the contact impulses are not (hyperstatic packings)."""
-    c = state.contacts
-    net = np.zeros((model.n_bodies, 3))
-    np.add.at(net, c.i, c.impulse_global)
-    np.add.at(net, c.j, -c.impulse_global)
-    return net
-
-
-@pytest.fixture(scope="module")
-def pile_states():
-    """A 300-grain pile (frictionless walls) while it lands (step 150) and at rest (700)."""
-    model, state, box, _ = box_pile(300, 12e-3, tol=1e-6, max_iter=2000)
-    out = {}
-    for k in range(1, 701):
-        step(model, state)
-        if k in (150, 700):
-            out[k] = state.copy()
-    return model, out
-
-
 @pytest.mark.parametrize("at", [150, 700])
 @pytest.mark.parametrize("threads", [2, 3, 4])
 def test_parallel_step_matches_serial_within_tolerance(pile_states, threads, at):
@@ -126,7 +104,7 @@ def test_parallel_step_matches_serial_within_tolerance(pile_states, threads, at)
     assert b.iterations <= 1.5 * a.iterations + 10
     gh = G * model.options.dt  # the velocity that one step of gravity gives
     np.testing.assert_allclose(b_state.vel6, a_state.vel6, rtol=0, atol=1e-6 * gh)
-    na, nb_ = _net_impulse(tight, a_state), _net_impulse(par, b_state)
+    na, nb_ = net_contact_impulse(tight, a_state), net_contact_impulse(par, b_state)
     np.testing.assert_allclose(nb_, na, rtol=0, atol=1e-8 * np.abs(na).max())
     # same contacts, in the same buffer order
     k = a_state.contacts_buf.count
@@ -185,30 +163,9 @@ def test_parallel_is_deterministic():
 def test_parallel_with_wire_and_driven_wall():
     """Links (swept on one thread after the contacts) and a pressure-driven lid (its
     contacts are shared by every domain) give the serial result within tolerance."""
-    rng = np.random.default_rng(3)
-    r = 1e-3
-    radii = r * (1 - 0.002 * rng.uniform(0, 1, 108))
     res = []
     for threads in (1, 2):
-        s = Scene(gravity=(0, 0, -G))
-        pts = np.stack(np.meshgrid(np.arange(6), np.arange(6), np.arange(3), indexing="ij"),
-                       -1).reshape(-1, 3) * 2.0 * r + r
-        pts[:, 2] += 1e-5
-        s.add_spheres(pts, radii, density=2650.0)
-        top = pts[:, 2].max() + r
-        wire = np.array([[1.99 * r * k + 1.02 * r, 5 * r, top + r + 2e-5] for k in range(6)])
-        beads = s.add_wire(wire, radius=0.98 * r, density=1400.0, law=laws.ElasticWire(stiffness=100.0))
-        s.fix([beads[0], beads[-1]])
-        s.add_box((0, 0, 0), (12 * r, 12 * r, 0.05), group="wall")
-        lid = s.add_plane(point=(0, 0, top + 2 * r + 4e-5), normal=(0, 0, -1), group="lid")
-        s.drive(lid, pressure=10.0, mass=1e-3, area=(12 * r) ** 2)
-        for g in ("sand", "wire"):
-            s.interact(g, "wall", laws.Coulomb(mu=0.0))
-            s.interact(g, "lid", laws.Coulomb(mu=0.0))
-        s.interact("sand", "sand", laws.Coulomb(mu=0.3))
-        s.interact("wire", "sand", laws.Coulomb(mu=0.3))
-        s.interact("wire", "wire", laws.Coulomb(mu=0.3))
-        model, state = s.compile(dt=1e-4, tol=1e-8, max_iter=50000, threads=threads)
+        model, state, lid = wire_under_lid(threads=threads)
         for _ in range(15):
             st = step(model, state)
             assert st.converged

@@ -257,3 +257,16 @@ def test_cylinder_sample_small_scale_and_relaxation():
     assert fz == pytest.approx(-weight, rel=0.01)
     # the wire stayed a chain of the same beads
     assert sum(len(c) for c in wire_chains(model, state)) == s.n_beads
+
+
+def test_small_box_sample_that_overflows_its_first_mould():
+    """box_sample(0.05, seed=2) leaves its last grain no pocket in the first mould (1.5 x
+    the box height): the mould grows and every grain is placed, none overlapping."""
+    from engine.prep import box_sample
+
+    s = box_sample(0.05, seed=2)
+    assert s.sand_radii.size == 325
+    d = np.linalg.norm(s.sand_centers[:, None] - s.sand_centers[None], axis=-1)
+    gap = d - s.sand_radii[:, None] - s.sand_radii[None]
+    np.fill_diagonal(gap, np.inf)
+    assert gap.min() > -1e-9 * s.sand_radii.min()

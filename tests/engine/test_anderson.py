@@ -1,0 +1,84 @@
+"""Anderson acceleration of the NLGS sweeps (Options.anderson, engine.solver.anderson):
+the same solution as plain Gauss–Seidel within the tolerance, in fewer sweeps."""
+import numpy as np
+import pytest
+
+from engine import Scene, step
+from engine.model import Options
+
+from tests.helpers import G, net_contact_impulse, wire_under_lid
+
+
+@pytest.mark.parametrize("bad", [-1, 17, 2.5, "four", None])
+def test_anderson_is_validated(bad):
+    with pytest.raises(ValueError, match="anderson"):
+        Options(dt=1e-3, alert=0.0, skin=1e-3, anderson=bad)
+    s = Scene()
+    s.add_spheres([[0, 0, 1e-3]], 1e-3, density=1000.0)
+    with pytest.raises(ValueError, match="anderson"):
+        s.compile(dt=1e-4, anderson=bad)
+
+
+def test_anderson_with_threads_is_refused():
+    with pytest.raises(ValueError, match="anderson.*threads"):
+        Options(dt=1e-3, alert=0.0, skin=1e-3, anderson=4, threads=2)
+
+
+@pytest.mark.parametrize("at", [150, 700])
+def test_anderson_step_matches_plain_within_tolerance(pile_states, at):
+    """From the same state, one step converged to tol 1e-10 gives the plain Gauss–Seidel
+    velocities (to 1e-6 of the velocity one step of gravity gives) and per-body contact
+    impulses (to 1e-8 of the largest)."""
+    model, states = pile_states
+    tight = model.with_options(tol=1e-10, max_iter=50000, anderson=0)
+    acc = tight.with_options(anderson=4)
+    a_state, b_state = states[at].copy(), states[at].copy()
+    a = step(tight, a_state)
+    b = step(acc, b_state)
+    assert a.converged and b.converged
+    gh = G * model.options.dt
+    np.testing.assert_allclose(b_state.vel6, a_state.vel6, rtol=0, atol=1e-6 * gh)
+    na, nb_ = net_contact_impulse(tight, a_state), net_contact_impulse(acc, b_state)
+    np.testing.assert_allclose(nb_, na, rtol=0, atol=1e-8 * np.abs(na).max())
+
+
+def test_anderson_needs_fewer_sweeps_on_a_settled_pile(pile_states):
+    """On the settled pile, the sweeps to tol 1e-8 drop by at least 2x (measured: see
+    docs/speed.md), and the solution is one of the plain solver's within tolerance."""
+    model, states = pile_states
+    tight = model.with_options(tol=1e-8, max_iter=50000, anderson=0)
+    a_state, b_state = states[700].copy(), states[700].copy()
+    a = step(tight, a_state)
+    b = step(tight.with_options(anderson=4), b_state)
+    assert a.converged and b.converged
+    assert b.iterations * 2 <= a.iterations, (a.iterations, b.iterations)
+
+
+def test_anderson_with_wire_and_driven_wall():
+    """Links (mixed with the contacts, unilateral ones projected on λ >= 0) and a
+    pressure-driven lid: the plain solver's trajectory within tolerance (tol 1e-10, so
+    that both are within ~1e-8 of the exact one after 15 steps)."""
+    res = []
+    for m in (0, 4):
+        model, state, lid = wire_under_lid(anderson=m, tol=1e-10)
+        for _ in range(15):
+            st = step(model, state)
+            assert st.converged
+        res.append(state)
+    a, b = res
+    assert a.link_impulse.max() > 0.0
+    np.testing.assert_allclose(b.position, a.position, rtol=0, atol=1e-9)
+    assert abs(b.position[lid, 2] - a.position[lid, 2]) < 1e-9
+    np.testing.assert_allclose(b.link_impulse, a.link_impulse, rtol=0,
+                               atol=1e-6 * np.abs(a.link_impulse).max() + 1e-15)
+    assert (b.link_impulse >= 0.0).all()
+
+
+def test_anderson_is_deterministic(pile_states):
+    model, states = pile_states
+    acc = model.with_options(tol=1e-6, anderson=4)
+    a, b = states[150].copy(), states[150].copy()
+    for _ in range(3):
+        step(acc, a)
+        step(acc, b)
+    assert np.array_equal(a.vel6, b.vel6)

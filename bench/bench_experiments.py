@@ -6,6 +6,7 @@ Projection: cost ∝ bodies × steps × mean NLGS sweeps per step, the sweeps ta
 bottleneck).  Targets: cylinder triaxial at scale 1 under 10 min; slope under 1 h.
 
 Usage: python bench/bench_experiments.py [--scale-cyl 0.2] [--scale-box 0.2] [--scale-slope 0.1]
+                                        [--tests cylinder_triaxial,box_triaxial,slope_deposit]
 Writes bench/results/experiments-YYYYMMDD-HHMM.json.
 """
 from __future__ import annotations
@@ -46,7 +47,8 @@ def measure(name, fn, scale, tmp):
     per_body_step = wall / (bodies * steps)
     row = dict(test=name, scale=scale, bodies=bodies, steps=steps, wall_seconds=wall,
                seconds_per_step=wall / steps, mean_sweeps=sweeps,
-               non_converged_share=r.convergence["share"],
+               non_converged_share=r.convergence["share"], anderson=r.params.get("anderson"),
+               at_rest=getattr(r, "at_rest", None),
                paper_bodies=pb, paper_steps=ps,
                projected_scale1_seconds_for_our_steps=per_body_step * pb * steps,
                projected_scale1_seconds_for_paper_steps=per_body_step * pb * ps)
@@ -62,13 +64,22 @@ def main():
     ap.add_argument("--scale-cyl", type=float, default=0.2)
     ap.add_argument("--scale-box", type=float, default=0.1)
     ap.add_argument("--scale-slope", type=float, default=0.1)
+    ap.add_argument("--tests", default="cylinder_triaxial,box_triaxial,slope_deposit",
+                    help="comma-separated subset of the three tests")
     a = ap.parse_args()
+    tests = [t.strip() for t in a.tests.split(",") if t.strip()]
+    known = {"cylinder_triaxial": (cylinder_triaxial, a.scale_cyl),
+             "box_triaxial": (box_triaxial, a.scale_box),
+             "slope_deposit": (slope_deposit, a.scale_slope)}
+    bad = [t for t in tests if t not in known]
+    if bad:
+        ap.error(f"--tests: unknown {bad}; choose among {sorted(known)}")
     out = {"machine": platform.platform(), "cpu_count": os.cpu_count(),
            "load_avg_start": os.getloadavg(), "runs": []}
     with tempfile.TemporaryDirectory() as tmp:
-        out["runs"].append(measure("cylinder_triaxial", cylinder_triaxial, a.scale_cyl, tmp))
-        out["runs"].append(measure("box_triaxial", box_triaxial, a.scale_box, tmp))
-        out["runs"].append(measure("slope_deposit", slope_deposit, a.scale_slope, tmp))
+        for t in tests:
+            fn, scale = known[t]
+            out["runs"].append(measure(t, fn, scale, tmp))
     out["targets_seconds"] = {"cylinder_triaxial": 600, "slope_deposit": 3600}
     out["load_avg_end"] = os.getloadavg()
     os.makedirs(os.path.join(os.path.dirname(__file__), "results"), exist_ok=True)

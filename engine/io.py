@@ -38,6 +38,7 @@ import numpy as np
 from . import laws as _laws
 from .model import SPHERE, Drive, Model, Options
 from .analysis.energy import kinetic_energy  # noqa: F401  (engine.io.kinetic_energy)
+from .analysis.network import wall_forces  # noqa: F401  (engine.io.wall_forces)
 from .state import ContactBuffers, State, StepStats
 
 #: Name written in the root attribute ``format``.
@@ -479,22 +480,6 @@ class Checkpoint:
 
 
 # -- history -----------------------------------------------------------------------------------
-def wall_forces(model: Model, state: State) -> np.ndarray:
-    """Total contact force on each wall over the last step, (nw, 3) [N], ``model.wall_ids``
-    order (the opposite of the impulses on the spheres, divided by the step length)."""
-    c = state.contacts_buf
-    out = np.zeros((model.n_walls, 3))
-    if not state.last_dt or c.count == c.n_pair:
-        return out
-    a = slice(c.n_pair, c.count)  # sphere–wall contacts come after the sphere–sphere ones
-    fr, p = c.frame[a], c.impulse[a]
-    glob = p[:, 0:1] * fr[:, 0:3] + p[:, 1:2] * fr[:, 3:6] + p[:, 2:3] * fr[:, 6:9]
-    slot = np.full(model.n_bodies, -1, np.int64)
-    slot[model.wall_ids] = np.arange(model.n_walls)
-    np.add.at(out, slot[c.j[a]], -glob / state.last_dt)
-    return out
-
-
 _FRAME_BODY = {"position": ("m", 3), "velocity": ("m/s", 3), "spin": ("rad/s", 3)}
 _FRAME_CONTACT = {"i": (np.int32, (), "-"), "j": (np.int32, (), "-"), "sub": (np.int8, (), "-"),
                   "normal": (np.float64, (3,), "-"), "gap": (np.float64, (), "m"),

@@ -58,17 +58,26 @@ def force_network(model, state, *, bins: int = 20, max_ratio: float = 5.0) -> Fo
 
 
 def wall_forces(model, state, walls=None) -> np.ndarray:
-    """Total force [N] exerted **on** each wall by the spheres over the last step, (n, 3).
+    """Total force [N] exerted **on** each wall by the spheres over the last step, (n, 3):
+    the opposite of the sphere–wall impulses, divided by the step length (zeros before the
+    first step).
 
-    ``walls``: body ids (default: every wall, in ``model.wall_ids`` order).
+    ``walls``: body ids (default: every wall, in ``model.wall_ids`` order).  Used by the
+    experiments and by :class:`engine.io.History` (its ``wall_force`` records).
     """
     walls = model.wall_ids if walls is None else np.atleast_1d(np.asarray(walls))
     out = np.zeros((len(walls), 3))
-    c = state.contacts
-    if len(c):
-        f = c.force
-        for k, w in enumerate(walls):
-            out[k] = -f[c.j == w].sum(axis=0)
+    c = state.contacts_buf
+    if not state.last_dt or c.count == c.n_pair:
+        return out
+    a = slice(c.n_pair, c.count)  # sphere–wall contacts come after the sphere–sphere ones
+    fr, p = c.frame[a], c.impulse[a]
+    glob = p[:, 0:1] * fr[:, 0:3] + p[:, 1:2] * fr[:, 3:6] + p[:, 2:3] * fr[:, 6:9]
+    slot = np.full(model.n_bodies, -1, np.int64)
+    slot[walls] = np.arange(len(walls))
+    k = slot[c.j[a]]
+    on = k >= 0
+    np.add.at(out, k[on], -glob[on] / state.last_dt)
     return out
 
 

@@ -35,6 +35,7 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
+from .local import project_disk
 from .nlgs import _apply, _apply_link, sweep_all
 
 #: Sweeps between two mixings.  A mixing costs about 1.3 sweeps on the 1 000-sphere
@@ -251,12 +252,7 @@ def iterate_anderson(n, n_pair, c_i, c_j, frame, w, gterm, mu, ri, rj, impulse, 
                     ps -= gb * dg[b, a, 2]
                 if pn < 0.0:
                     pn = 0.0
-                lim = mu[a] * pn
-                nt2 = pt * pt + ps * ps
-                if nt2 > lim * lim:
-                    sc = lim / np.sqrt(nt2)
-                    pt *= sc
-                    ps *= sc
+                pt, ps = project_disk(pt, ps, mu[a] * pn)
                 dpn = pn - impulse[a, 0]
                 dpt = pt - impulse[a, 1]
                 dps = ps - impulse[a, 2]

@@ -46,10 +46,16 @@ def coulomb(fn, ft, fs, iwn, iwt, mu):
     pn = -fn * iwn
     pt = -ft * iwt
     ps = -fs * iwt
-    lim = mu * pn
+    pt, ps = project_disk(pt, ps, mu * pn)
+    return pn, pt, ps
+
+
+@njit(cache=True, inline="always")
+def project_disk(pt, ps, lim):
+    """(pt, ps) projected on the disk of radius ``lim`` >= 0 (the Coulomb cone's section)."""
     nt2 = pt * pt + ps * ps
     if nt2 > lim * lim:
         scale = lim / np.sqrt(nt2)
         pt *= scale
         ps *= scale
-    return pn, pt, ps
+    return pt, ps

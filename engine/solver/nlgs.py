@@ -424,32 +424,22 @@ def layout(n, c_i, c_j, nl, link_i, link_j, loc, perm, li, lj, lli, llj):
     """
     k = 0
     for a in range(n):
-        i = c_i[a]
-        if loc[i] < 0:
-            loc[i] = k
-            perm[k] = i
-            k += 1
-        j = c_j[a]
-        if loc[j] < 0:
-            loc[j] = k
-            perm[k] = j
-            k += 1
-        li[a] = loc[i]
-        lj[a] = loc[j]
+        li[a], k = _local_index(c_i[a], loc, perm, k)
+        lj[a], k = _local_index(c_j[a], loc, perm, k)
     for m in range(nl):
-        i = link_i[m]
-        if loc[i] < 0:
-            loc[i] = k
-            perm[k] = i
-            k += 1
-        j = link_j[m]
-        if loc[j] < 0:
-            loc[j] = k
-            perm[k] = j
-            k += 1
-        lli[m] = loc[i]
-        llj[m] = loc[j]
+        lli[m], k = _local_index(link_i[m], loc, perm, k)
+        llj[m], k = _local_index(link_j[m], loc, perm, k)
     return k
+
+
+@njit(cache=True, inline="always")
+def _local_index(b, loc, perm, k):
+    """Local index of body ``b`` (numbered ``k`` on first touch); returns it and the next k."""
+    if loc[b] < 0:
+        loc[b] = k
+        perm[k] = b
+        k += 1
+    return loc[b], k
 
 
 #: Scenes with at least this many bodies are swept on the local layout of :func:`layout`

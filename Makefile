@@ -51,13 +51,18 @@ test: $(STAMP) sysdeps
 demo: $(STAMP) sysdeps
 	$(VENV)/bin/nscd demo --out out/demo
 
-## make bench: benchmarks; print figures and write JSON under bench/results/
-bench: $(STAMP)
+## make bench: every benchmark (about 45 min on 2 idle cores); each prints its figures and
+## writes its JSON under bench/results/ (bench/README.md says what each one measures)
+bench: $(STAMP) sysdeps
 	$(PY) bench/bench_core.py
 	$(PY) bench/bench_wire.py
+	$(PY) bench/bench_scaling.py
+	$(PY) bench/bench_parallel.py
+	$(PY) bench/tradeoff.py
 	$(PY) bench/bench_prep.py
 	$(PY) bench/bench_render.py
 	$(PY) bench/bench_experiments.py
+	$(PY) bench/bench_sweep.py
 
 ## make bench-peers: the same scenes in Siconos and Yade (installed with apt if missing)
 bench-peers: $(STAMP)

@@ -28,7 +28,6 @@ import datetime as _dt
 import hashlib
 import json
 import os
-import platform
 import subprocess
 import sys
 import tempfile
@@ -52,6 +51,7 @@ from engine.contact import detect  # noqa: E402
 from engine.integrator import free_velocity, update  # noqa: E402
 from engine.solver import nlgs  # noqa: E402
 from engine.solver.nlgs import solve, sweep  # noqa: E402
+import record  # noqa: E402
 from yardstick import body_inverses, yard_sweep  # noqa: E402
 
 IMPORT_S = time.perf_counter() - _T0
@@ -404,16 +404,6 @@ def bench_deposit(dims, steps: int, max_wall_s: float, window: int = 50, label: 
 # ---------------------------------------------------------------------------------------
 # machine, repository
 # ---------------------------------------------------------------------------------------
-def _cpu_model() -> str:
-    try:
-        for line in Path("/proc/cpuinfo").read_text().splitlines():
-            if line.startswith("model name"):
-                return line.split(":", 1)[1].strip()
-    except OSError:
-        pass
-    return platform.processor() or "unknown"
-
-
 def _git(*args) -> str | None:
     try:
         return subprocess.run(["git", *args], cwd=str(ROOT), capture_output=True, text=True,
@@ -431,10 +421,10 @@ def _engine_hash() -> str:
 
 
 def machine_info() -> dict:
+    """record.machine() and the thread set-up (the run's ``busy`` figure: record.Busy)."""
     return dict(
-        nproc=os.cpu_count(), sched_affinity=len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else None,
-        cpu_model=_cpu_model(), platform=platform.platform(), python=platform.python_version(),
-        numba=numba.__version__, numpy=np.__version__, llvmlite=__import__("llvmlite").__version__,
+        record.machine(),
+        sched_affinity=len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else None,
         numba_default_threads=int(numba.config.NUMBA_NUM_THREADS),
         loadavg_start=list(os.getloadavg()))
 
@@ -495,6 +485,7 @@ def main(argv=None) -> int:
         dims_1k, dims_10k = (10, 10, 10), (25, 25, 16)
         pack = PACKING
     stamp = _dt.datetime.now()
+    busy = record.Busy()
     out = dict(benchmark="core", started=stamp.isoformat(timespec="seconds"), quick=a.quick,
                machine=machine_info(),
                git=dict(commit=_git("rev-parse", "HEAD"),
@@ -557,6 +548,7 @@ def main(argv=None) -> int:
         print(_fmt_sweep(f"{n10}-sphere deposit after {r10['steps_done']} steps", sd))
 
     out["machine"]["loadavg_end"] = list(os.getloadavg())
+    out["busy"] = busy.finish()
     out["total_wall_s"] = time.perf_counter() - _T_START
     sp = out["sweep"]["packing"]
     out["summary"] = dict(
@@ -596,12 +588,7 @@ def main(argv=None) -> int:
     return 0
 
 
-def _json_default(o):
-    if isinstance(o, np.generic):
-        return o.item()
-    if isinstance(o, np.ndarray):
-        return o.tolist()
-    raise TypeError(type(o))
+_json_default = record._json_default
 
 
 if __name__ == "__main__":

@@ -14,7 +14,6 @@ from __future__ import annotations
 import argparse
 import json
 import os
-import platform
 import sys
 import tempfile
 import time
@@ -23,6 +22,9 @@ import warnings
 import numpy as np
 
 sys.path.insert(0, os.path.join(os.path.dirname(__file__), ".."))
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+
+import record  # noqa: E402
 
 from engine.experiments import box_triaxial, cylinder_triaxial, slope_deposit  # noqa: E402
 from engine.io import read_history  # noqa: E402
@@ -74,14 +76,14 @@ def main():
     bad = [t for t in tests if t not in known]
     if bad:
         ap.error(f"--tests: unknown {bad}; choose among {sorted(known)}")
-    out = {"machine": platform.platform(), "cpu_count": os.cpu_count(),
-           "load_avg_start": os.getloadavg(), "runs": []}
+    busy = record.Busy()
+    out = {"machine": record.machine(), "git": record.git_commit(), "runs": []}
     with tempfile.TemporaryDirectory() as tmp:
         for t in tests:
             fn, scale = known[t]
             out["runs"].append(measure(t, fn, scale, tmp))
     out["targets_seconds"] = {"cylinder_triaxial": 600, "slope_deposit": 3600}
-    out["load_avg_end"] = os.getloadavg()
+    out["busy"] = busy.finish()
     os.makedirs(os.path.join(os.path.dirname(__file__), "results"), exist_ok=True)
     path = os.path.join(os.path.dirname(__file__), "results",
                         time.strftime("experiments-%Y%m%d-%H%M.json"))

@@ -17,17 +17,16 @@ For each size (bench_scaling.py's randomly numbered compressed FCC packings): co
   per contact for both, and the speed-up.
 
 Both thread counts run interleaved ``reps`` times; the figures are medians.  The machine
-may be shared: the load average is in the JSON, and a neighbour that takes one of the two
-cores removes most of the speed-up (the threads meet at a barrier every sweep phase).
+may be shared: ``busy`` in the JSON gives the CPU that other processes took during the run
+(bench/record.py), and a neighbour that takes one of the two cores removes most of the
+speed-up (the threads meet at a barrier every sweep phase).  The per-sweep figure is a
+whole step of ``sweeps`` sweeps, so the serial detection and set-up dilute it; the
+to-tolerance step (hundreds of sweeps) is the one the target is checked on.
 """
 from __future__ import annotations
 
 import argparse
 import datetime as _dt
-import json
-import os
-import platform
-import subprocess
 import sys
 import time
 from pathlib import Path
@@ -39,6 +38,7 @@ for _p in (str(ROOT), str(ROOT / "bench")):
 
 import numpy as np  # noqa: E402
 
+import record  # noqa: E402
 from bench_scaling import SIZES, packing  # noqa: E402
 
 
@@ -112,7 +112,7 @@ def main(argv=None):
     import numba
 
     t_all = time.perf_counter()
-    load0 = os.getloadavg()
+    busy = record.Busy()
     from engine import step
 
     for T in (1, 2):  # warm-up: numba cache loads of both paths
@@ -130,23 +130,15 @@ def main(argv=None):
               f"sweeps): x{tt['speedup']:.2f} | per sweep x{r['per_sweep']['speedup']:.2f} "
               f"({r['per_sweep']['ns_per_contact_threads1']:.1f} -> "
               f"{r['per_sweep']['ns_per_contact_threads2']:.1f} ns/contact)", flush=True)
-    load1 = os.getloadavg()
     big = res[-1]
     out = dict(
         benchmark="parallel", started=_dt.datetime.now().isoformat(timespec="seconds"),
         command="cd " + str(ROOT) + " && .venv/bin/python bench/bench_parallel.py "
                 + " ".join(sys.argv[1:] if argv is None else list(argv)),
-        machine=dict(platform=platform.platform(), nproc=os.cpu_count(),
-                     numba=numba.__version__, threading_layer=numba.threading_layer(),
-                     numba_num_threads=numba.config.NUMBA_NUM_THREADS,
-                     loadavg_start=load0, loadavg_end=load1),
-        note=(f"machine shared with other workers: load average {load0[0]:.2f} at start and "
-              f"{load1[0]:.2f} at end on {os.cpu_count()} cores, so the two threads rarely "
-              "had two free cores: these speed-ups are pessimistic (a barrier waits for the "
-              "slower thread every sweep phase).  Re-measure on an idle machine with the "
-              "command above."),
-        git=subprocess.run(["git", "-C", str(ROOT), "rev-parse", "HEAD"], capture_output=True,
-                           text=True).stdout.strip(),
+        machine=dict(record.machine(), threading_layer=numba.threading_layer(),
+                     numba_num_threads=numba.config.NUMBA_NUM_THREADS),
+        busy=busy.finish(),
+        git=record.git_commit(),
         params=dict(prep_steps=a.prep, sweeps=a.sweeps, reps=a.reps, tol=a.tol),
         sizes=res,
         summary=dict(target_speedup=1.6, case=big["label"],
@@ -155,9 +147,7 @@ def main(argv=None):
                      iterations_ratio=big["to_tolerance"]["iterations_ratio"],
                      target_met=big["to_tolerance"]["speedup"] >= 1.6),
         total_wall_s=time.perf_counter() - t_all)
-    stamp = _dt.datetime.now().strftime("%Y%m%d-%H%M")
-    path = ROOT / "bench" / "results" / f"parallel-{stamp}.json"
-    path.write_text(json.dumps(out, indent=1))
+    path = record.write("parallel", out)
     print(f"wrote {path.relative_to(ROOT)}")
     return 0
 

@@ -10,13 +10,15 @@ from __future__ import annotations
 
 import json
 import os
-import platform
 import sys
 import time
 
 import numpy as np
 
 sys.path.insert(0, os.path.join(os.path.dirname(__file__), ".."))
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+
+import record  # noqa: E402
 
 from engine.prep import (Cylinder, geometric, granulometry, paper_sample,  # noqa: E402
                          random_walk)
@@ -34,8 +36,8 @@ def core_fraction(c, r, cyl):
 
 
 def main():
-    out = {"machine": platform.platform(), "python": sys.version.split()[0],
-           "cpu_count": os.cpu_count(), "load_avg_start": os.getloadavg(), "deposit": [],
+    busy = record.Busy()
+    out = {"machine": record.machine(), "git": record.git_commit(), "deposit": [],
            "walk": [], "samples": []}
     geometric(np.full(20, 1e-4), Cylinder(1e-3, 4e-3))          # compile (cached)
     # sand only, the paper's granulometries, in a tall cylinder of the paper's diameter
@@ -67,7 +69,7 @@ def main():
     out["target_seconds"] = 10.0
     print(f"paper-scale cylinder sample (6 200 grains + {cyl['beads']} beads): {total:.2f} s "
           f"(target < 10 s)")
-    out["load_avg_end"] = os.getloadavg()
+    out["busy"] = busy.finish()
     os.makedirs(os.path.join(os.path.dirname(__file__), "results"), exist_ok=True)
     path = os.path.join(os.path.dirname(__file__), "results",
                         time.strftime("prep-%Y%m%d-%H%M.json"))

@@ -33,9 +33,6 @@ from __future__ import annotations
 import argparse
 import datetime as _dt
 import json
-import os
-import platform
-import subprocess
 import sys
 import tempfile
 import time
@@ -47,20 +44,13 @@ if str(ROOT) not in sys.path:
 
 import numpy as np  # noqa: E402
 
+sys.path.insert(0, str(ROOT / "bench"))
+import record  # noqa: E402
 from engine import step  # noqa: E402
 from tests.workbench.scenes import texsol_cylinder  # noqa: E402
-from workbench import meshes  # noqa: E402
 from workbench.series import SeriesWriter  # noqa: E402
 
 EVERY = 100  # SeriesWriter's default writing interval [steps]
-
-
-def _git(*args):
-    try:
-        return subprocess.run(["git", *args], cwd=str(ROOT), capture_output=True, text=True,
-                              timeout=20).stdout.strip()
-    except OSError:
-        return None
 
 
 def _dir_size(path: Path) -> int:
@@ -159,7 +149,7 @@ def main(argv=None) -> int:
     if a.quick:
         a.n, a.settle, a.steps, a.repeat = 2000, 20, 3, 2
     started = _dt.datetime.now()
-    load0 = os.getloadavg()
+    busy = record.Busy()
     radius = 2.5e-3 * np.sqrt(a.n / 300.0) * 0.9
     t0 = time.perf_counter()
     model, state, _ = texsol_cylinder(n_sand=a.n, wire_beads=400, steps=0,
@@ -222,11 +212,8 @@ def main(argv=None) -> int:
             print(f"render {p:6s}: {rend[p]['best_s']:.2f} s (best of {a.repeat}; median "
                   f"{rend[p]['median_s']:.2f} s)")
     out = dict(benchmark="render", started=started.isoformat(timespec="seconds"), quick=a.quick,
-               machine=dict(nproc=os.cpu_count(), sched_affinity=len(os.sched_getaffinity(0)),
-                            platform=platform.platform(), python=platform.python_version(),
-                            loadavg_start=load0, loadavg_end=os.getloadavg(),
-                            note="2 cores shared with other jobs: timings are noisy"),
-               git=dict(commit=_git("rev-parse", "HEAD")),
+               machine=record.machine(), busy=busy.finish(),
+               git=dict(commit=record.git_commit()),
                scene=dict(beads=model.n_spheres, links=model.n_links, walls=model.n_walls),
                step=step_res, frame=frame, render=rend, every=EVERY)
     od = Path(a.out_dir)

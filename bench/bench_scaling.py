@@ -26,8 +26,6 @@ from __future__ import annotations
 import argparse
 import datetime as _dt
 import json
-import os
-import platform
 import subprocess
 import sys
 import time
@@ -39,6 +37,9 @@ if str(ROOT) not in sys.path:
     sys.path.insert(0, str(ROOT))
 
 import numpy as np  # noqa: E402
+
+sys.path.insert(0, str(ROOT / "bench"))
+import record  # noqa: E402
 
 SIZES = {"1k": (7, 6, 6), "4k": (10, 10, 10), "16k": (16, 16, 16), "64k": (25, 25, 26)}
 
@@ -198,7 +199,7 @@ def main(argv=None):
         return 0
     sizes = a.sizes.split(",") if a.sizes else (["1k", "4k"] if a.quick else list(SIZES))
     t_all = time.perf_counter()
-    load0 = os.getloadavg()
+    busy = record.Busy()
     res = []
     for lab in sizes:
         cmd = [sys.executable, __file__, "--child", lab, "--order", a.order, "--prep",
@@ -229,20 +230,13 @@ def main(argv=None):
         and (r["memory"].get("peak_rss_minus_contact_buffers_per_body") is None
              or r["memory"]["peak_rss_minus_contact_buffers_per_body"] <= 2048)
         for r in res)
-    load1 = os.getloadavg()
     out = dict(
         benchmark="scaling", started=_dt.datetime.now().isoformat(timespec="seconds"),
         command="  ".join(["cd", str(ROOT), "&&", ".venv/bin/python bench/bench_scaling.py"]
                           + (sys.argv[1:] if argv is None else list(argv))),
-        machine=dict(platform=platform.platform(), nproc=os.cpu_count(),
-                     python=sys.version.split()[0], loadavg_start=load0, loadavg_end=load1),
-        note=(f"machine shared with other workers: load average {load0[0]:.2f} at start, "
-              f"{load1[0]:.2f} at end on {os.cpu_count()} cores; absolute times are "
-              "pessimistic and the large sizes (memory-bound) suffer most from a neighbour's "
-              "memory traffic.  Single thread.  Re-measure on a quiet machine with the "
-              "command above."),
-        git=subprocess.run(["git", "-C", str(ROOT), "rev-parse", "HEAD"], capture_output=True,
-                           text=True).stdout.strip(),
+        machine=record.machine(), busy=busy.finish(),
+        note="Single thread; each size in its own process.",
+        git=record.git_commit(),
         params=dict(order=a.order, prep_steps=a.prep, timed_steps=a.steps,
                     sweeps_per_step=a.sweeps, dt=5e-5, mu=0.3, r0=1e-4),
         sizes=res,
@@ -257,9 +251,7 @@ def main(argv=None):
             flat_ok=worst <= 1.3, flat_ok_cpu=worst_cpu <= 1.3,
             memory_target_bytes_per_body=2048, memory_ok=mem_ok),
         total_wall_s=time.perf_counter() - t_all)
-    stamp = _dt.datetime.now().strftime("%Y%m%d-%H%M")
-    path = ROOT / "bench" / "results" / f"scaling-{stamp}{'-quick' if a.quick else ''}.json"
-    path.write_text(json.dumps(out, indent=1))
+    path = record.write("scaling", out, quick=a.quick)
     print(f"flat: max/min {worst:.2f} (cpu {worst_cpu:.2f}; target <= 1.3); memory ok: {mem_ok}")
     print(f"wrote {path.relative_to(ROOT)}")
     return 0

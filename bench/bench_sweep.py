@@ -14,14 +14,15 @@ from __future__ import annotations
 import argparse
 import json
 import os
-import platform
 import shutil
-import subprocess
 import sys
 import tempfile
 import time
 
 sys.path.insert(0, os.path.join(os.path.dirname(__file__), ".."))
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+
+import record  # noqa: E402
 
 from engine.sweep import sweep  # noqa: E402
 from workbench.paper import SCALES, build_report, paper_case  # noqa: E402
@@ -34,20 +35,6 @@ def table2_cases(scale):
     cases.append(dict(test="cylinder_triaxial", name="cylinder_rigid_seed0", wire="rigid",
                       k=None, seed=0, **cy))
     return cases
-
-
-def machine():
-    return dict(nproc=os.cpu_count(), sched_affinity=len(os.sched_getaffinity(0)),
-                platform=platform.platform(), python=platform.python_version(),
-                loadavg=list(os.getloadavg()))
-
-
-def git():
-    try:
-        return subprocess.run(["git", "rev-parse", "--short", "HEAD"], capture_output=True,
-                              text=True, cwd=os.path.dirname(__file__)).stdout.strip()
-    except OSError:
-        return "?"
 
 
 def run_sweep(cases, client, tmp, tag):
@@ -68,7 +55,8 @@ def main():
     a = ap.parse_args()
     scale = SCALES[a.scale]
     started = time.strftime("%Y%m%d-%H%M")
-    m0 = machine()
+    m0 = record.machine()
+    busy = record.Busy()
     cases = table2_cases(scale)
     tmp = tempfile.mkdtemp(prefix="bench_sweep_")
     try:
@@ -84,9 +72,8 @@ def main():
                           claims={c.id: c.status for c in rep.claims})
             shutil.copy(rep.path, os.path.join(a.out, f"sweep-{started}-report.md"))
             with open(os.path.join(a.out, f"sweep-{started}.json"), "w") as f:   # partial
-                json.dump(dict(benchmark="sweep", started=started, git=git(), scale=scale.name,
-                               machine=dict(m0, note="2 cores shared with other workers: "
-                                            "timings are noisy"), report=report,
+                json.dump(dict(benchmark="sweep", started=started, git=record.git_commit(),
+                               scale=scale.name, machine=m0, report=report,
                                table2="not finished yet"), f, indent=1)
         serial, t_serial = run_sweep(cases, "serial", tmp, "serial")
         dist, t_dist = run_sweep(cases, None, tmp, "dask")
@@ -96,11 +83,8 @@ def main():
     finally:
         shutil.rmtree(tmp, ignore_errors=True)
     res = dict(
-        benchmark="sweep", started=started, git=git(), scale=scale.name,
-        machine=dict(m0, loadavg_end=list(os.getloadavg()),
-                     note="2 cores shared with other workers running tests and benchmarks "
-                          "at the same time: timings are noisy, and the 2-worker speed-up is "
-                          "bounded by 2 and lowered by the other jobs"),
+        benchmark="sweep", started=started, git=record.git_commit(), scale=scale.name,
+        machine=m0, busy=busy.finish(),
         table2=dict(cases=len(cases), parameters=scale.cylinder,
                     serial_seconds=t_serial, dask_2_workers_seconds=t_dist,
                     speedup=t_serial / t_dist if t_dist else None,

@@ -787,6 +787,7 @@ def main(argv=None) -> int:
 
     numba.set_num_threads(1)
     stamp = _dt.datetime.now()
+    busy = core.record.Busy()
     out = dict(benchmark="wire", started=stamp.isoformat(timespec="seconds"), quick=a.quick,
                machine=core.machine_info(), numba_threads=1,
                git=dict(commit=core._git("rev-parse", "HEAD"),
@@ -846,6 +847,7 @@ def main(argv=None) -> int:
           + f"; the chain moved {tc['displacement_max_m']:.2e} m", flush=True)
 
     out["machine"]["loadavg_end"] = list(os.getloadavg())
+    out["busy"] = busy.finish()
     out["total_wall_s"] = time.perf_counter() - _T_START
     ls = out["link_sweep"]
     out["summary"] = dict(

@@ -430,6 +430,7 @@ def main(argv=None) -> int:
             if knob in v and val not in v[knob]:
                 v[knob] = sorted(v[knob] + [val])
     only = a.only or list(ps)
+    busy = core.record.Busy()
     out = dict(benchmark="tradeoff", started=stamp.isoformat(timespec="seconds"),
                quick=a.quick, note=NOTE, machine=core.machine_info(),
                git=dict(commit=core._git("rev-parse", "HEAD") or os.environ.get("TRADEOFF_COMMIT"),
@@ -495,6 +496,7 @@ def main(argv=None) -> int:
                       flush=True)
 
     out["machine"]["loadavg_end"] = list(os.getloadavg())
+    out["busy"] = busy.finish()
     out["total_wall_s"] = time.perf_counter() - _T_START
     if core._engine_hash() != out["git"]["engine_sources_sha256"]:
         out["git"]["warning"] = "engine/ sources changed while the benchmark ran"

@@ -9,7 +9,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 import numpy as np
-from pydantic import BaseModel, ConfigDict, Field, field_validator, model_validator
+from pydantic import BaseModel, ConfigDict, Field, field_validator
 
 #: ``body_kind`` codes.
 SPHERE, PLANE, CYLINDER = 0, 1, 2
@@ -53,8 +53,9 @@ class Options(BaseModel):
         Gravity [m/s²] applied to free spheres.
     anderson : int
         Depth m of the Anderson acceleration of the NLGS sweeps, in [0, 16] (0: plain
-        Gauss–Seidel).  The convergence test is the same (:mod:`engine.solver.anderson`);
-        serial solver only (``threads == 1``).
+        Gauss–Seidel).  The convergence test is the same (:mod:`engine.solver.anderson`).
+        With ``threads > 1`` the parallel sweeps are mixed the same way (the mixing pass
+        runs on one thread).
     threads : int
         NLGS threads, in [1, 64].  1 (the default): the serial Gauss–Seidel sweep.  T > 1:
         the domain-decomposed Gauss–Seidel of :mod:`engine.solver.parallel` (T domains swept
@@ -82,13 +83,6 @@ class Options(BaseModel):
             rng = "[1, 64]" if info.field_name == "threads" else "[0, 16]"
             raise ValueError(f"{info.field_name} must be an integer in {rng}, not a bool")
         return v
-
-    @model_validator(mode="after")
-    def _anderson_serial(self):
-        if self.anderson > 0 and self.threads > 1:
-            raise ValueError(f"anderson = {self.anderson} needs threads = 1 (the acceleration "
-                             f"runs on the serial solver); got threads = {self.threads}")
-        return self
 
 
 @dataclass(frozen=True)

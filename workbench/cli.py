@@ -59,6 +59,8 @@ class SolverParams(_Strict):
     max_iter: int = Field(1000, ge=1)
     anderson: int = Field(4, ge=0, le=16,
                           description="NLGS Anderson acceleration depth (0: plain Gauss-Seidel)")
+    threads: int = Field(1, ge=1, le=64,
+                         description="NLGS threads (2 pays on tens of thousands of contacts)")
     mu: float = Field(0.5, ge=0, le=10)
     mu_wire: float = Field(0.3, ge=0, le=10)
     max_nonconverged: float = Field(0.25, ge=0, le=1)

@@ -37,6 +37,7 @@ from numba import njit
 
 from .local import project_disk
 from .nlgs import _apply, _apply_link, sweep_all
+from .parallel import sweep_groups
 
 #: Sweeps between two mixings.  A mixing costs about 1.3 sweeps on the 1 000-sphere
 #: deposit (a streaming pass over the history and a pass that moves the velocities); one
@@ -80,6 +81,7 @@ class Workspace:
             self.rhs = np.empty(m)
             self.gamma = np.empty(m)
             self.mat = np.empty((m, m))
+            self.acc = np.zeros((2, 2))  # unused Quad sums of the serial path
         return self
 
 
@@ -133,9 +135,12 @@ def _solve_small(k, gram, rhs, mat, gamma):
 def iterate_anderson(n, n_pair, c_i, c_j, frame, w, gterm, mu, ri, rj, impulse, body_dyn, vel6,
                      relax, tol, max_iter, nl, link_i, link_j, l_normal, wl, l_unilateral,
                      l_impulse, l_order, m, period, dg, df, dgl, dfl, x, g, f, xl, gl, fl, gram, rhs,
-                     mat, gamma):
+                     mat, gamma, T, start, acc):
     """:func:`engine.solver.nlgs.iterate` with Anderson mixing of depth ``m`` between
-    sweeps (module docstring).  Returns ``(iterations, residual)``."""
+    sweeps (module docstring).  ``T`` = 1: serial sweeps (:func:`engine.solver.nlgs.sweep_all`);
+    ``T`` > 1: the domain-decomposed sweeps of :func:`engine.solver.parallel.sweep_groups`
+    on contacts gathered by group (``start``, ``acc``: its group starts and Quad sums).
+    Returns ``(iterations, residual)``."""
     if n == 0 and nl == 0:
         return 0, 0.0
     for a in range(n):
@@ -152,8 +157,14 @@ def iterate_anderson(n, n_pair, c_i, c_j, frame, w, gterm, mu, ri, rj, impulse, 
     mixing = True
     res = 0.0
     for it in range(max_iter):
-        res = sweep_all(n, n_pair, c_i, c_j, frame, w, gterm, mu, ri, rj, impulse, body_dyn, vel6,
-                        relax, nl, link_i, link_j, l_normal, wl, l_unilateral, l_impulse, l_order)
+        if T > 1:
+            res = sweep_groups(T, start, c_i, c_j, frame, w, gterm, mu, ri, rj, impulse, body_dyn,
+                               vel6, relax, nl, link_i, link_j, l_normal, wl, l_unilateral,
+                               l_impulse, l_order, acc)
+        else:
+            res = sweep_all(n, n_pair, c_i, c_j, frame, w, gterm, mu, ri, rj, impulse, body_dyn,
+                            vel6, relax, nl, link_i, link_j, l_normal, wl, l_unilateral,
+                            l_impulse, l_order)
         if res < tol or it == max_iter - 1:
             return it + 1, res
         if res > RESTART_GROWTH * prev_res:
@@ -290,16 +301,24 @@ def iterate_anderson(n, n_pair, c_i, c_j, frame, w, gterm, mu, ri, rj, impulse, 
     return max_iter, res
 
 
-def iterate_on(ws: Workspace, m, n, n_pair, ci, cj, c, body_dyn, vel6, relax, tol, max_iter,
-               nl, link_i, link_j, l_normal, wl, l_unilateral, l_impulse, l_order):
-    """Call :func:`iterate_anderson` with the buffers of ``ws`` (grown as needed)."""
+_NO_GROUPS = np.zeros(1, np.int64)
+
+
+def run_anderson(ws: Workspace, m, n, n_pair, ci, cj, frame, w, gterm, mu, ri, rj, impulse,
+                 body_dyn, vel6, relax, tol, max_iter, nl, link_i, link_j, l_normal, wl,
+                 l_unilateral, l_impulse, l_order, T=1, start=None, acc=None):
+    """Call :func:`iterate_anderson` with the buffers of ``ws`` (grown as needed); ``T``,
+    ``start``, ``acc``: the grouped parallel sweep (:func:`engine.solver.parallel.iterate_parallel`)."""
     ws.ensure(m, n, nl)
-    return iterate_anderson(n, n_pair, ci, cj, c.frame, c.w, c.gterm, c.mu, c.ri, c.rj,
-                            c.impulse, body_dyn, vel6, relax, tol, max_iter, nl, link_i, link_j,
-                            l_normal, wl, l_unilateral, l_impulse, l_order, m, PERIOD, ws.dg, ws.df,
-                            ws.dgl, ws.dfl, ws.x, ws.g, ws.f, ws.xl, ws.gl, ws.fl, ws.gram,
-                            ws.rhs, ws.mat, ws.gamma)
+    if T == 1:
+        start = _NO_GROUPS
+        acc = ws.acc
+    return iterate_anderson(n, n_pair, ci, cj, frame, w, gterm, mu, ri, rj, impulse, body_dyn,
+                            vel6, relax, tol, max_iter, nl, link_i, link_j, l_normal, wl,
+                            l_unilateral, l_impulse, l_order, m, PERIOD, ws.dg, ws.df, ws.dgl,
+                            ws.dfl, ws.x, ws.g, ws.f, ws.xl, ws.gl, ws.fl, ws.gram, ws.rhs, ws.mat,
+                            ws.gamma, T, start, acc)
 
 
-__all__ = ["iterate_anderson", "iterate_on", "Workspace", "PERIOD", "RESTART_GROWTH",
+__all__ = ["iterate_anderson", "run_anderson", "Workspace", "PERIOD", "RESTART_GROWTH",
            "STALL_MIXINGS"]

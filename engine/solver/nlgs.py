@@ -505,15 +505,18 @@ def _solve_on(model, state, ci, cj, body_dyn, vel6, pos, link_i, link_j, threads
         link_prepare(nl, link_i, link_j, model.link_ref_length, model.link_stiffness,
                      state.link_broken, pos, body_dyn, vel6,
                      state.link_impulse, state.link_normal, state.link_gap, wl, o.dt)
-    if threads == 1 and o.anderson > 0:
-        from .anderson import Workspace, iterate_on
+    ws = None
+    if o.anderson > 0:
+        from .anderson import Workspace, run_anderson
 
         ws = getattr(state, "_anderson", None)
         if ws is None:
             ws = state._anderson = Workspace()
-        return iterate_on(ws, o.anderson, n, c.n_pair, ci, cj, c, body_dyn, vel6, o.relax, o.tol,
-                          o.max_iter, nl, link_i, link_j, state.link_normal, wl,
-                          model.link_unilateral, state.link_impulse, model.link_order)
+        if threads == 1:
+            return run_anderson(ws, o.anderson, n, c.n_pair, ci, cj, c.frame, c.w, c.gterm, c.mu,
+                                c.ri, c.rj, c.impulse, body_dyn, vel6, o.relax, o.tol,
+                                o.max_iter, nl, link_i, link_j, state.link_normal, wl,
+                                model.link_unilateral, state.link_impulse, model.link_order)
     if threads == 1:
         return iterate(n, c.n_pair, ci, cj, c.frame, c.w, c.gterm, c.mu, c.ri, c.rj, c.impulse,
                        body_dyn, vel6, o.relax, o.tol, o.max_iter,
@@ -524,7 +527,8 @@ def _solve_on(model, state, ci, cj, body_dyn, vel6, pos, link_i, link_j, threads
     return iterate_parallel(threads, n, ci, cj, c.frame, c.w, c.gterm, c.mu, c.ri, c.rj,
                             c.impulse, body_dyn, vel6, o.relax, o.tol, o.max_iter,
                             nl, link_i, link_j, state.link_normal, wl,
-                            model.link_unilateral, state.link_impulse, model.link_order)
+                            model.link_unilateral, state.link_impulse, model.link_order,
+                            o.anderson, ws)
 
 
 #: Columns of the per-link work array ``wl`` filled by :func:`link_prepare`.

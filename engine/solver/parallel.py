@@ -159,46 +159,56 @@ def _phase(first, count, stride, start, c_i, c_j, frame, w, gterm, mu, ri, rj, i
 
 
 @njit(cache=True)
+def sweep_groups(T, start, c_i, c_j, frame, w, gterm, mu, ri, rj, impulse, body_dyn, vel6, relax,
+                 nl, link_i, link_j, l_normal, wl, l_unilateral, l_impulse, l_order, acc):
+    """One sweep of the grouped contacts (interiors, even boundaries, odd boundaries,
+    shared) then the links; returns the Quad residual of the sweep."""
+    ng = 2 * T
+    nbd = T - 1
+    _phase(0, T, 1, start, c_i, c_j, frame, w, gterm, mu, ri, rj, impulse, body_dyn, vel6,
+           relax, acc)
+    for parity in range(2):
+        cnt = (nbd - parity + 1) // 2
+        if cnt == 1:
+            g = T + parity
+            x, y = _group_sweep(start[g], start[g + 1], c_i, c_j, frame, w, gterm, mu, ri, rj,
+                                impulse, body_dyn, vel6, relax)
+            acc[g, 0] = x
+            acc[g, 1] = y
+        elif cnt > 1:
+            _phase(T + parity, cnt, 2, start, c_i, c_j, frame, w, gterm, mu, ri, rj, impulse,
+                   body_dyn, vel6, relax, acc)
+    num = 0.0
+    den = 0.0
+    for a in range(start[ng - 1], start[ng]):  # shared: full serial kernel (LINE walls)
+        x, y = _contact(a, c_i, c_j, frame, w, gterm, mu, ri, rj, impulse, body_dyn, vel6,
+                        relax, True)
+        num += x
+        den += y
+    for g in range(ng - 1):
+        num += acc[g, 0]
+        den += acc[g, 1]
+    if nl > 0:
+        lnum, lden = link_sweep(nl, link_i, link_j, l_normal, wl, l_unilateral, l_impulse,
+                                body_dyn, vel6, relax, l_order)
+        num += lnum
+        den += lden
+    return np.sqrt(num / den) if den > 0.0 else 0.0
+
+
+@njit(cache=True)
 def iterate_groups(T, n, start, c_i, c_j, frame, w, gterm, mu, ri, rj, impulse, body_dyn,
                    vel6, relax, tol, max_iter, nl, link_i, link_j, l_normal, wl,
                    l_unilateral, l_impulse, l_order, acc):
-    """Sweeps of the grouped contacts (interiors, even boundaries, odd boundaries, shared)
-    then links, until the Quad residual is below ``tol``; returns (iterations, residual)."""
+    """Sweeps (:func:`sweep_groups`) until the Quad residual is below ``tol``; returns
+    (iterations, residual)."""
     if n == 0 and nl == 0:
         return 0, 0.0
-    ng = 2 * T
-    nbd = T - 1
     res = 0.0
     for it in range(max_iter):
-        _phase(0, T, 1, start, c_i, c_j, frame, w, gterm, mu, ri, rj, impulse, body_dyn, vel6,
-               relax, acc)
-        for parity in range(2):
-            cnt = (nbd - parity + 1) // 2
-            if cnt == 1:
-                g = T + parity
-                x, y = _group_sweep(start[g], start[g + 1], c_i, c_j, frame, w, gterm, mu, ri,
-                                    rj, impulse, body_dyn, vel6, relax)
-                acc[g, 0] = x
-                acc[g, 1] = y
-            elif cnt > 1:
-                _phase(T + parity, cnt, 2, start, c_i, c_j, frame, w, gterm, mu, ri, rj,
-                       impulse, body_dyn, vel6, relax, acc)
-        num = 0.0
-        den = 0.0
-        for a in range(start[ng - 1], start[ng]):  # shared: full serial kernel (LINE walls)
-            x, y = _contact(a, c_i, c_j, frame, w, gterm, mu, ri, rj, impulse, body_dyn, vel6,
-                            relax, True)
-            num += x
-            den += y
-        for g in range(ng - 1):
-            num += acc[g, 0]
-            den += acc[g, 1]
-        if nl > 0:
-            lnum, lden = link_sweep(nl, link_i, link_j, l_normal, wl, l_unilateral, l_impulse,
-                                    body_dyn, vel6, relax, l_order)
-            num += lnum
-            den += lden
-        res = np.sqrt(num / den) if den > 0.0 else 0.0
+        res = sweep_groups(T, start, c_i, c_j, frame, w, gterm, mu, ri, rj, impulse, body_dyn,
+                           vel6, relax, nl, link_i, link_j, l_normal, wl, l_unilateral,
+                           l_impulse, l_order, acc)
         if res < tol:
             return it + 1, res
     return max_iter, res
@@ -206,12 +216,14 @@ def iterate_groups(T, n, start, c_i, c_j, frame, w, gterm, mu, ri, rj, impulse, 
 
 def iterate_parallel(T, n, c_i, c_j, frame, w, gterm, mu, ri, rj, impulse, body_dyn, vel6,
                      relax, tol, max_iter, nl, link_i, link_j, l_normal, wl, l_unilateral,
-                     l_impulse, l_order):
+                     l_impulse, l_order, anderson=0, workspace=None):
     """:func:`engine.solver.nlgs.iterate` on ``T`` domains (module docstring).
 
     ``c_i, c_j, body_dyn, vel6`` are in the local numbering of
     :func:`engine.solver.nlgs.layout`.  Runs on min(T, numba's thread count) threads; the
-    result depends on ``T`` only.
+    result depends on ``T`` only.  With ``anderson = m > 0`` the sweeps are mixed as in
+    :mod:`engine.solver.anderson` (the mixing pass itself runs on one thread), with the
+    history buffers of ``workspace``.
     """
     T = int(T)
     nloc = body_dyn.shape[0]
@@ -236,9 +248,18 @@ def iterate_parallel(T, n, c_i, c_j, frame, w, gterm, mu, ri, rj, impulse, body_
     if want != prev:
         numba.set_num_threads(want)
     try:
-        it, res = iterate_groups(T, n, start, g_i, g_j, g_frame, g_w, g_gterm, g_mu, g_ri, g_rj,
-                                 g_imp, body_dyn, vel6, relax, tol, max_iter, nl, link_i, link_j,
-                                 l_normal, wl, l_unilateral, l_impulse, l_order, acc)
+        if anderson > 0:
+            from .anderson import run_anderson
+
+            it, res = run_anderson(workspace, anderson, n, n, g_i, g_j, g_frame, g_w, g_gterm,
+                                   g_mu, g_ri, g_rj, g_imp, body_dyn, vel6, relax, tol, max_iter,
+                                   nl, link_i, link_j, l_normal, wl, l_unilateral, l_impulse,
+                                   l_order, T, start, acc)
+        else:
+            it, res = iterate_groups(T, n, start, g_i, g_j, g_frame, g_w, g_gterm, g_mu, g_ri,
+                                     g_rj, g_imp, body_dyn, vel6, relax, tol, max_iter, nl,
+                                     link_i, link_j, l_normal, wl, l_unilateral, l_impulse,
+                                     l_order, acc)
     finally:
         if want != prev:
             numba.set_num_threads(prev)
@@ -246,4 +267,4 @@ def iterate_parallel(T, n, c_i, c_j, frame, w, gterm, mu, ri, rj, impulse, body_
     return it, res
 
 
-__all__ = ["iterate_parallel", "partition", "iterate_groups"]
+__all__ = ["iterate_parallel", "partition", "iterate_groups", "sweep_groups"]

@@ -19,19 +19,15 @@ def test_anderson_is_validated(bad):
         s.compile(dt=1e-4, anderson=bad)
 
 
-def test_anderson_with_threads_is_refused():
-    with pytest.raises(ValueError, match="anderson.*threads"):
-        Options(dt=1e-3, alert=0.0, skin=1e-3, anderson=4, threads=2)
-
-
+@pytest.mark.parametrize("threads", [1, 2])
 @pytest.mark.parametrize("at", [150, 700])
-def test_anderson_step_matches_plain_within_tolerance(pile_states, at):
-    """From the same state, one step converged to tol 1e-10 gives the plain Gauss–Seidel
-    velocities (to 1e-6 of the velocity one step of gravity gives) and per-body contact
-    impulses (to 1e-8 of the largest)."""
+def test_anderson_step_matches_plain_within_tolerance(pile_states, at, threads):
+    """From the same state, one step converged to tol 1e-10 gives the plain serial
+    Gauss–Seidel velocities (to 1e-6 of the velocity one step of gravity gives) and
+    per-body contact impulses (to 1e-8 of the largest), on 1 and 2 threads."""
     model, states = pile_states
     tight = model.with_options(tol=1e-10, max_iter=50000, anderson=0)
-    acc = tight.with_options(anderson=4)
+    acc = tight.with_options(anderson=4, threads=threads)
     a_state, b_state = states[at].copy(), states[at].copy()
     a = step(tight, a_state)
     b = step(acc, b_state)
@@ -42,11 +38,12 @@ def test_anderson_step_matches_plain_within_tolerance(pile_states, at):
     np.testing.assert_allclose(nb_, na, rtol=0, atol=1e-8 * np.abs(na).max())
 
 
-def test_anderson_needs_fewer_sweeps_on_a_settled_pile(pile_states):
-    """On the settled pile, the sweeps to tol 1e-8 drop by at least 2x (measured: see
-    docs/speed.md), and the solution is one of the plain solver's within tolerance."""
+@pytest.mark.parametrize("threads", [1, 2])
+def test_anderson_needs_fewer_sweeps_on_a_settled_pile(pile_states, threads):
+    """On the settled pile, the sweeps to tol 1e-8 drop by at least 2x against plain
+    Gauss–Seidel on the same number of threads (measured: see docs/speed.md)."""
     model, states = pile_states
-    tight = model.with_options(tol=1e-8, max_iter=50000, anderson=0)
+    tight = model.with_options(tol=1e-8, max_iter=50000, anderson=0, threads=threads)
     a_state, b_state = states[700].copy(), states[700].copy()
     a = step(tight, a_state)
     b = step(tight.with_options(anderson=4), b_state)
@@ -54,13 +51,14 @@ def test_anderson_needs_fewer_sweeps_on_a_settled_pile(pile_states):
     assert b.iterations * 2 <= a.iterations, (a.iterations, b.iterations)
 
 
-def test_anderson_with_wire_and_driven_wall():
+@pytest.mark.parametrize("threads", [1, 2])
+def test_anderson_with_wire_and_driven_wall(threads):
     """Links (mixed with the contacts, unilateral ones projected on λ >= 0) and a
-    pressure-driven lid: the plain solver's trajectory within tolerance (tol 1e-10, so
-    that both are within ~1e-8 of the exact one after 15 steps)."""
+    pressure-driven lid: the plain serial solver's trajectory within tolerance (tol 1e-10,
+    so that both are within ~1e-8 of the exact one after 15 steps)."""
     res = []
-    for m in (0, 4):
-        model, state, lid = wire_under_lid(anderson=m, tol=1e-10)
+    for m, t in ((0, 1), (4, threads)):
+        model, state, lid = wire_under_lid(anderson=m, tol=1e-10, threads=t)
         for _ in range(15):
             st = step(model, state)
             assert st.converged
@@ -74,9 +72,10 @@ def test_anderson_with_wire_and_driven_wall():
     assert (b.link_impulse >= 0.0).all()
 
 
-def test_anderson_is_deterministic(pile_states):
+@pytest.mark.parametrize("threads", [1, 2])
+def test_anderson_is_deterministic(pile_states, threads):
     model, states = pile_states
-    acc = model.with_options(tol=1e-6, anderson=4)
+    acc = model.with_options(tol=1e-6, anderson=4, threads=threads)
     a, b = states[150].copy(), states[150].copy()
     for _ in range(3):
         step(acc, a)

@@ -105,6 +105,7 @@ def test_slope_deposit(tmp_path):
     (slope_deposit, dict(scale=-1.0), "scale"),
     (box_triaxial, dict(max_nonconverged=2.0), "max_nonconverged"),
     (cylinder_triaxial, dict(scale=0.01), "diameters across"),
+    (slope_deposit, dict(threads=0), "threads"),
 ])
 def test_bad_input(fn, kw, field, tmp_path):
     with pytest.raises(ValueError, match=field):
@@ -116,3 +117,26 @@ def test_fails_loudly_when_steps_do_not_converge(tmp_path):
         box_triaxial(0.02, axial_strain=0.002, max_iter=2, tol=1e-12, max_nonconverged=0.1,
                      iso_max_steps=50, history=str(tmp_path / "b.h5"), progress=False)
     assert e.value.result.convergence["share"] > 0.1
+
+
+@pytest.mark.parametrize("fn, scale", [(slope_deposit, 0.02), (box_triaxial, 0.02),
+                                       (cylinder_triaxial, 0.05)])
+def test_threads_and_anderson_reach_the_solver(fn, scale, monkeypatch, tmp_path):
+    """Each test passes threads and anderson to Scene.compile (the run itself is stopped
+    there: on samples this small two threads are slower than one, docs/speed.md; the
+    solver's side is tests/engine/test_anderson.py)."""
+    from engine import Scene
+
+    class Compiled(Exception):
+        pass
+
+    seen = {}
+
+    def spy(self, **kw):
+        seen.update(kw)
+        raise Compiled
+
+    monkeypatch.setattr(Scene, "compile", spy)
+    with pytest.raises(Compiled):
+        fn(scale, threads=2, anderson=3, history=str(tmp_path / "x.h5"), progress=False)
+    assert seen["threads"] == 2 and seen["anderson"] == 3

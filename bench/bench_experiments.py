@@ -34,12 +34,12 @@ PAPER = {"cylinder_triaxial": (7300, 2000), "box_triaxial": (8000, 100000),
          "slope_deposit": (28900, 4000)}
 
 
-def measure(name, fn, scale, tmp):
+def measure(name, fn, scale, tmp, threads=1):
     path = os.path.join(tmp, f"{name}.h5")
     t = time.perf_counter()
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
-        r = fn(scale, history=path, progress=True)
+        r = fn(scale, history=path, progress=True, threads=threads)
     wall = time.perf_counter() - t
     h = read_history(path, frames=False)
     bodies = r.params["n_sand"] + r.params["n_beads"]
@@ -50,6 +50,7 @@ def measure(name, fn, scale, tmp):
     row = dict(test=name, scale=scale, bodies=bodies, steps=steps, wall_seconds=wall,
                seconds_per_step=wall / steps, mean_sweeps=sweeps,
                non_converged_share=r.convergence["share"], anderson=r.params.get("anderson"),
+               threads=threads, interrupted=r.convergence.get("interrupted"),
                at_rest=getattr(r, "at_rest", None),
                paper_bodies=pb, paper_steps=ps,
                projected_scale1_seconds_for_our_steps=per_body_step * pb * steps,
@@ -68,6 +69,8 @@ def main():
     ap.add_argument("--scale-slope", type=float, default=0.1)
     ap.add_argument("--tests", default="cylinder_triaxial,box_triaxial,slope_deposit",
                     help="comma-separated subset of the three tests")
+    ap.add_argument("--threads", type=int, default=1,
+                    help="NLGS threads of every test (docs/speed.md: 2 pays on large samples)")
     a = ap.parse_args()
     tests = [t.strip() for t in a.tests.split(",") if t.strip()]
     known = {"cylinder_triaxial": (cylinder_triaxial, a.scale_cyl),
@@ -81,7 +84,7 @@ def main():
     with tempfile.TemporaryDirectory() as tmp:
         for t in tests:
             fn, scale = known[t]
-            out["runs"].append(measure(t, fn, scale, tmp))
+            out["runs"].append(measure(t, fn, scale, tmp, a.threads))
     out["targets_seconds"] = {"cylinder_triaxial": 600, "slope_deposit": 3600}
     out["busy"] = busy.finish()
     os.makedirs(os.path.join(os.path.dirname(__file__), "results"), exist_ok=True)

@@ -16,7 +16,10 @@ For each size (bench_scaling.py's randomly numbered compressed FCC packings): co
 * **to tolerance with Anderson mixing** (``anderson=4``, the experiments' default): the same
   step with 1 and 2 threads, and the 2-thread time against plain serial;
 * **per sweep**: ``sweeps`` sweeps exactly (tol ~ 0): wall and process CPU time per sweep
-  per contact for both, and the speed-up.
+  per contact for both, and the speed-up;
+* **detection**: the broadphase (``rebuild_pairs``, the cell-grid search) and the
+  narrowphase (``detect`` without a rebuild) on 1 and 2 threads from the same state, the
+  fastest of ``5 × reps`` calls each, and whether the two thread counts give the same lists.
 
 Both thread counts run interleaved ``reps`` times; the figures are medians.  The machine
 may be shared: ``busy`` in the JSON gives the CPU that other processes took during the run
@@ -88,6 +91,7 @@ def measure(label, prep, sweeps, reps, tol):
             cpu = time.process_time() - c0
             per_sweep[T].append(wall / (st.iterations * st.n_contacts) * 1e9)
             per_sweep_cpu[T].append(cpu / (st.iterations * st.n_contacts) * 1e9)
+    out["detection"] = detection(model, state, 5 * reps)
     med = lambda xs: float(np.median(xs))  # noqa: E731
     out["n_contacts"] = to_tol[1][0]["contacts"]
     out["to_tolerance"] = {
@@ -120,6 +124,39 @@ def measure(label, prep, sweeps, reps, tol):
         cpu_ns_per_contact_threads2=med(per_sweep_cpu[2]),
         speedup=med(per_sweep[1]) / med(per_sweep[2]),
         all_threads1=per_sweep[1], all_threads2=per_sweep[2])
+    return out
+
+
+def detection(model, state, reps):
+    """Broadphase and narrowphase wall times on 1 and 2 threads (fastest of ``reps``)."""
+    from engine.contact import PARALLEL_DETECT_MIN_SPHERES, detect, rebuild_pairs
+
+    best = {}
+    ends = {}
+    for T in (1, 2):
+        m = model.with_options(threads=T)
+        s = state.copy()
+        for name, f in (("broadphase", rebuild_pairs), ("narrowphase", detect)):
+            ts = []
+            for _ in range(reps):
+                t = time.perf_counter()
+                f(m, s)
+                ts.append(time.perf_counter() - t)
+            best[(name, T)] = min(ts)
+        ends[T] = s
+    a, b = ends[1], ends[2]
+    ca, cb = a.contacts_buf, b.contacts_buf
+    same = (a.n_pairs == b.n_pairs and np.array_equal(a.pairs[:a.n_pairs], b.pairs[:b.n_pairs])
+            and ca.count == cb.count
+            and all(np.array_equal(getattr(ca, f)[:ca.count], getattr(cb, f)[:cb.count])
+                    for f in ("i", "j", "sub", "key", "frame", "gap")))
+    out = dict(reps=reps, candidate_pairs=int(a.n_pairs), contacts=int(ca.count),
+               parallel_from_spheres=PARALLEL_DETECT_MIN_SPHERES,
+               parallel_used=model.n_spheres >= PARALLEL_DETECT_MIN_SPHERES,
+               same_lists=bool(same))
+    for name in ("broadphase", "narrowphase"):
+        out[name] = dict(threads1_ms=best[(name, 1)] * 1e3, threads2_ms=best[(name, 2)] * 1e3,
+                         speedup=best[(name, 1)] / best[(name, 2)])
     return out
 
 
@@ -158,6 +195,12 @@ def main(argv=None):
               f"{aa['threads2']['step_wall_s_median']:.3f} s ({aa['threads2']['iterations']} "
               f"sweeps): x{aa['speedup']:.2f}; x{aa['speedup_over_plain_serial']:.2f} over plain "
               "serial", flush=True)
+        d = r["detection"]
+        print(f"      detection: broadphase {d['broadphase']['threads1_ms']:.2f} -> "
+              f"{d['broadphase']['threads2_ms']:.2f} ms (x{d['broadphase']['speedup']:.2f}), "
+              f"narrowphase {d['narrowphase']['threads1_ms']:.2f} -> "
+              f"{d['narrowphase']['threads2_ms']:.2f} ms (x{d['narrowphase']['speedup']:.2f}), "
+              f"same lists: {d['same_lists']}", flush=True)
     big = res[-1]
     out = dict(
         benchmark="parallel", started=_dt.datetime.now().isoformat(timespec="seconds"),
@@ -173,6 +216,8 @@ def main(argv=None):
                      speedup_to_tolerance=big["to_tolerance"]["speedup"],
                      speedup_per_sweep=big["per_sweep"]["speedup"],
                      iterations_ratio=big["to_tolerance"]["iterations_ratio"],
+                     broadphase_speedup=big["detection"]["broadphase"]["speedup"],
+                     narrowphase_speedup=big["detection"]["narrowphase"]["speedup"],
                      target_met=big["to_tolerance"]["speedup"] >= 1.6),
         total_wall_s=time.perf_counter() - t_all)
     path = record.write("parallel", out)

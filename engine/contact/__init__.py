@@ -6,8 +6,21 @@ from __future__ import annotations
 
 import numpy as np
 
-from .broadphase import build_pairs_ordered, cell_sort, max_displacement
-from .narrowphase import narrowphase, tangent_frame
+from ..threads import numba_threads
+from .broadphase import build_pairs_ordered, build_pairs_parallel, cell_sort, max_displacement
+from .narrowphase import narrowphase, narrowphase_parallel, tangent_frame
+
+#: Fewest spheres for which ``threads > 1`` also runs the broadphase and the sphere–sphere
+#: narrowphase on several threads (below it, one thread: the threads' start-up costs more
+#: than the work; measured in ``bench/bench_parallel.py``).
+PARALLEL_DETECT_MIN_SPHERES = 2048
+
+
+def _detect_threads(model) -> int:
+    """Threads for the detection stages: ``Options.threads`` above
+    :data:`PARALLEL_DETECT_MIN_SPHERES` spheres, else 1."""
+    T = model.options.threads
+    return T if T > 1 and model.n_spheres >= PARALLEL_DETECT_MIN_SPHERES else 1
 
 __all__ = ["detect", "rebuild_pairs", "tangent_frame"]
 
@@ -15,7 +28,9 @@ __all__ = ["detect", "rebuild_pairs", "tangent_frame"]
 def rebuild_pairs(model, state) -> None:
     """Rebuild the candidate sphere–sphere pairs (surface distance < alert + skin).
 
-    The buffer ``state.pairs`` grows until every pair fits (none is dropped).
+    The buffer ``state.pairs`` grows until every pair fits (none is dropped).  With
+    ``Options.threads > 1`` (and enough spheres, :func:`_detect_threads`) the grid search runs
+    on that many threads, with the same list as one thread.
     """
     o = model.options
     margin = o.alert + o.skin
@@ -29,13 +44,18 @@ def rebuild_pairs(model, state) -> None:
             f"finite or beyond 1e6 m (bodies {ids[:10].tolist()}{' ...' if ids.size > 10 else ''}): the "
             f"velocities blew up; lower dt or check the loads")
     order = np.empty(model.n_spheres, np.int32)
+    T = _detect_threads(model)
     while True:
-        n = build_pairs_ordered(state.position, model.body_radius, model.body_group, model.pair_law,
-                                state.link_excluded_next, model.sphere_ids, margin, state.pairs,
-                                order)
-        if n <= state.pairs.shape[0]:
+        args = (state.position, model.body_radius, model.body_group, model.pair_law,
+                state.link_excluded_next, model.sphere_ids, margin, state.pairs, order)
+        if T > 1:
+            with numba_threads(T) as used:
+                n, need = build_pairs_parallel(used, *args)
+        else:
+            n = need = build_pairs_ordered(*args)
+        if need <= state.pairs.shape[0]:
             break
-        state.pairs = np.zeros((int(n * 1.3) + 64, 2), np.int32)
+        state.pairs = np.zeros((int(need * 1.3) + 64, 2), np.int32)
     state.n_pairs = n
     state.pairs_ref = state.position.copy()
     state.__dict__["_sphere_order"] = (state.pairs_ref, order)
@@ -64,7 +84,9 @@ def detect(model, state) -> bool:
     Called when ``state.position`` holds the θ-predicted configuration
     q_i + (1-θ) h v_i and ``state.vel6`` the free velocities.  Rebuilds the candidate list
     when a sphere has moved (or will move within this step) more than skin/2 since the last
-    build.  Fills ``state.contacts_buf`` (grown as needed; nothing is dropped).
+    build.  Fills ``state.contacts_buf`` (grown as needed; nothing is dropped).  With
+    ``Options.threads > 1`` the sphere–sphere pairs are tested on that many threads; the
+    contacts and their order are those of one thread.
 
     Returns
     -------
@@ -80,15 +102,22 @@ def detect(model, state) -> bool:
         rebuilt = True
     c = state.contacts_buf
     spheres = _sphere_order(model, state)
+    T = _detect_threads(model)
     while True:
-        k, n_pair = narrowphase(state.position, state.vel6, model.body_radius, model.body_kind,
-                        model.body_group, model.body_axis, model.body_height, model.body_caps,
-                        model.pair_law, model.law_param, state.pairs, state.n_pairs,
-                        spheres, model.wall_ids, o.alert, h,
-                        c.i, c.j, c.sub, c.key, c.frame, c.gap, c.mu, c.ri, c.rj)
-        if k <= c.cap:
+        args = (state.position, state.vel6, model.body_radius, model.body_kind,
+                model.body_group, model.body_axis, model.body_height, model.body_caps,
+                model.pair_law, model.law_param, state.pairs, state.n_pairs,
+                spheres, model.wall_ids, o.alert, h,
+                c.i, c.j, c.sub, c.key, c.frame, c.gap, c.mu, c.ri, c.rj)
+        if T > 1:
+            with numba_threads(T) as used:
+                k, n_pair, need = narrowphase_parallel(used, *args)
+        else:
+            k, n_pair = narrowphase(*args)
+            need = k
+        if need <= c.cap:
             break
-        c.allocate(int(k * 1.3) + 64)
+        c.allocate(int(need * 1.3) + 64)
     c.count = k
     c.n_pair = n_pair
     return rebuilt

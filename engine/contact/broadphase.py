@@ -9,7 +9,7 @@ until a body has moved more than half the skin (:func:`engine.contact.detect`).
 from __future__ import annotations
 
 import numpy as np
-from numba import njit
+from numba import njit, prange
 
 
 @njit(cache=True)
@@ -106,21 +106,35 @@ def build_pairs_ordered(pos, radius, group, pair_law, excluded_next, sphere_ids,
         ``out`` and call again (nothing is dropped silently).
     """
     ns = sphere_ids.shape[0]
-    cap = out.shape[0]
-    for k in range(ns):
-        cell_order[k] = sphere_ids[k]
     if ns < 2:
+        cell_order[:] = sphere_ids
         return 0
+    lo, dims, start, order, cell = _grid(pos, radius, sphere_ids, margin, cell_order)
+    return _pairs_range(0, ns, order, start, lo, dims, cell, pos, radius, group, pair_law,
+                        excluded_next, margin, out, 0, out.shape[0])
+
+
+@njit(cache=True)
+def _grid(pos, radius, sphere_ids, margin, cell_order):
+    """The cell grid of the spheres (cell side 2 r_max + margin): :func:`cell_sort`'s
+    (lo, dims, start, order, cell), with the cell order also copied to ``cell_order``."""
     rmax = 0.0
-    for k in range(ns):
+    for k in range(sphere_ids.shape[0]):
         r = radius[sphere_ids[k]]
         if r > rmax:
             rmax = r
     lo, dims, start, order, cell = cell_sort(pos, sphere_ids, 2.0 * rmax + margin)
-    for k in range(ns):
-        cell_order[k] = order[k]
+    cell_order[:] = order
+    return lo, dims, start, order, cell
+
+
+@njit(cache=True, inline="always")
+def _pairs_range(k0, k1, order, start, lo, dims, cell, pos, radius, group, pair_law,
+                 excluded_next, margin, out, o0, o1):
+    """The candidate pairs (i, j > i) of the spheres ``order[k0:k1]`` (cell order), written
+    to ``out[o0:o1]`` in that order; returns how many were found (possibly more than fit)."""
     count = 0
-    for k in range(ns):
+    for k in range(k0, k1):
         i = order[k]  # cell order: consecutive pairs touch nearby bodies (cache locality)
         xi = pos[i, 0]
         yi = pos[i, 1]
@@ -156,11 +170,80 @@ def build_pairs_ordered(pos, radius, group, pair_law, excluded_next, sphere_ids,
                         ddz = pos[j, 2] - zi
                         reach = ri + radius[j] + margin
                         if ddx * ddx + ddy * ddy + ddz * ddz < reach * reach:
-                            if count < cap:
-                                out[count, 0] = i
-                                out[count, 1] = j
+                            if o0 + count < o1:
+                                out[o0 + count, 0] = i
+                                out[o0 + count, 1] = j
                             count += 1
     return count
+
+
+@njit(cache=True)
+def chunk_regions(n_items, cap, T, bounds, base):
+    """Split ``n_items`` into ``T`` contiguous chunks (``bounds``, (T+1,)) and an output
+    buffer of ``cap`` rows into ``T`` regions of equal size (``base``, (T+1,))."""
+    for c in range(T + 1):
+        bounds[c] = (n_items * c) // T
+        base[c] = (cap * c) // T
+
+
+@njit(cache=True)
+def chunks_needed(base, counts):
+    """(found, needed): the total that the ``T`` chunks found and, when a chunk overflowed
+    its region of the output buffer (``base``, from :func:`chunk_regions`), a buffer size at
+    which every chunk fits (regions of ``cap / T`` rows)."""
+    T = counts.shape[0]
+    found = 0
+    need = 0
+    over = False
+    for c in range(T):
+        found += counts[c]
+        if counts[c] > base[c + 1] - base[c]:
+            over = True
+        if (counts[c] + 1) * T > need:
+            need = (counts[c] + 1) * T
+    return found, (need if over else found)
+
+
+@njit(cache=True, parallel=True)
+def build_pairs_parallel(T, pos, radius, group, pair_law, excluded_next, sphere_ids, margin,
+                         out, cell_order):
+    """:func:`build_pairs_ordered` on ``T`` threads, with the same output.
+
+    The cell-ordered spheres are cut into ``T`` contiguous chunks; chunk ``c`` writes its
+    pairs into its own region of ``out`` (``cap·c/T`` onwards), then the regions are moved
+    down to follow each other (8 bytes per pair), which gives the serial list exactly.
+
+    Returns
+    -------
+    (int, int)
+        Pairs found, and the capacity ``out`` needs (larger than the count when a chunk
+        overflowed its region: the caller grows ``out`` to it and calls again).
+    """
+    ns = sphere_ids.shape[0]
+    cap = out.shape[0]
+    if ns < 2:
+        cell_order[:] = sphere_ids
+        return 0, 0
+    lo, dims, start, order, cell = _grid(pos, radius, sphere_ids, margin, cell_order)
+    bounds = np.empty(T + 1, np.int64)
+    base = np.empty(T + 1, np.int64)
+    counts = np.zeros(T, np.int64)
+    chunk_regions(ns, cap, T, bounds, base)
+    for c in prange(T):
+        counts[c] = _pairs_range(bounds[c], bounds[c + 1], order, start, lo, dims, cell, pos,
+                                 radius, group, pair_law, excluded_next, margin, out, base[c],
+                                 base[c + 1])
+    found, need = chunks_needed(base, counts)
+    if need > cap:
+        return found, need
+    put = counts[0]
+    for c in range(1, T):
+        src = base[c]
+        for m in range(counts[c]):
+            out[put + m, 0] = out[src + m, 0]
+            out[put + m, 1] = out[src + m, 1]
+        put += counts[c]
+    return found, found
 
 
 @njit(cache=True)

@@ -11,7 +11,9 @@ the alert distance, or when the free relative velocity would close it within the
 from __future__ import annotations
 
 import numpy as np
-from numba import njit
+from numba import njit, prange
+
+from .broadphase import chunk_regions, chunks_needed
 
 from ..model import CAP_BOTTOM, CAP_TOP, CYLINDER, PLANE
 
@@ -127,9 +129,24 @@ def narrowphase(pos, vel6, radius, kind, group, axis, height, caps, pair_law, la
         how many of them, first in the buffers, are sphere–sphere.
     """
     cap = o_i.shape[0]
+    k = _pair_contacts(0, n_pairs, pos, vel6, radius, group, pair_law, law_param, pairs, alert, h,
+                       0, cap, o_i, o_j, o_sub, o_key, o_frame, o_gap, o_mu, o_ri, o_rj)
+    n_pair = k
+    k = _wall_contacts(k, pos, vel6, radius, kind, group, axis, height, caps, pair_law, law_param,
+                       sphere_ids, wall_ids, alert, h,
+                       o_i, o_j, o_sub, o_key, o_frame, o_gap, o_mu, o_ri, o_rj)
+    return k, n_pair
+
+
+@njit(cache=True, inline="always")
+def _pair_contacts(m0, m1, pos, vel6, radius, group, pair_law, law_param, pairs, alert, h,
+                   k0, k1, o_i, o_j, o_sub, o_key, o_frame, o_gap, o_mu, o_ri, o_rj):
+    """The active sphere–sphere contacts of the candidate pairs ``pairs[m0:m1]``, written in
+    that order to rows ``k0:k1`` of the output buffers; returns the row after the last one
+    found (possibly beyond ``k1``: the contacts past it are counted, not written)."""
     nb = pos.shape[0]
-    k = 0
-    for m in range(n_pairs):
+    k = k0
+    for m in range(m0, m1):
         i = pairs[m, 0]
         j = pairs[m, 1]
         dx = pos[i, 0] - pos[j, 0]
@@ -153,11 +170,30 @@ def narrowphase(pos, vel6, radius, kind, group, axis, height, caps, pair_law, la
         else:
             nx, ny, nz = 0.0, 0.0, 1.0
         law = pair_law[group[i], group[j]]
-        _emit(k, cap, i, j, 0, nb, nx, ny, nz, gap, law_param[law, 0], ri, rj,
+        _emit(k, k1, i, j, 0, nb, nx, ny, nz, gap, law_param[law, 0], ri, rj,
               o_i, o_j, o_sub, o_key, o_frame, o_gap, o_mu, o_ri, o_rj)
         k += 1
-    n_pair = k
-    for a in range(sphere_ids.shape[0]):
+    return k
+
+
+@njit(cache=True)
+def _wall_contacts(k, pos, vel6, radius, kind, group, axis, height, caps, pair_law, law_param,
+                   sphere_ids, wall_ids, alert, h,
+                   o_i, o_j, o_sub, o_key, o_frame, o_gap, o_mu, o_ri, o_rj):
+    """The active sphere–wall contacts, written from row ``k`` on; returns the row after the
+    last one found (possibly beyond the capacity: counted, not written)."""
+    return _wall_range(0, sphere_ids.shape[0], k, o_i.shape[0], pos, vel6, radius, kind, group,
+                       axis, height, caps, pair_law, law_param, sphere_ids, wall_ids, alert, h,
+                       o_i, o_j, o_sub, o_key, o_frame, o_gap, o_mu, o_ri, o_rj)
+
+
+@njit(cache=True, inline="always")
+def _wall_range(a0, a1, k, cap, pos, vel6, radius, kind, group, axis, height, caps, pair_law,
+                law_param, sphere_ids, wall_ids, alert, h,
+                o_i, o_j, o_sub, o_key, o_frame, o_gap, o_mu, o_ri, o_rj):
+    """:func:`_wall_contacts` of the spheres ``sphere_ids[a0:a1]``, written to rows ``k:cap``."""
+    nb = pos.shape[0]
+    for a in range(a0, a1):
         i = sphere_ids[a]
         x = pos[i, 0]
         y = pos[i, 1]
@@ -184,4 +220,73 @@ def narrowphase(pos, vel6, radius, kind, group, axis, height, caps, pair_law, la
                 _emit(k, cap, i, w, sub, nb, nx, ny, nz, gap, law_param[law, 0], r, 0.0,
                       o_i, o_j, o_sub, o_key, o_frame, o_gap, o_mu, o_ri, o_rj)
                 k += 1
-    return k, n_pair
+    return k
+
+
+@njit(cache=True, parallel=True)
+def narrowphase_parallel(T, pos, vel6, radius, kind, group, axis, height, caps, pair_law,
+                         law_param, pairs, n_pairs, sphere_ids, wall_ids, alert, h,
+                         o_i, o_j, o_sub, o_key, o_frame, o_gap, o_mu, o_ri, o_rj):
+    """:func:`narrowphase` with the sphere–sphere pairs on ``T`` threads; same output.
+
+    The candidate pairs are cut into ``T`` contiguous chunks; chunk ``c`` writes its contacts
+    into its own region of the buffers (rows ``cap·c/T`` onwards) and the regions are then
+    moved down to follow each other; the sphere–wall contacts are appended the same way,
+    the spheres cut into ``T`` chunks.
+
+    Returns
+    -------
+    (int, int, int)
+        Active contacts, how many are sphere–sphere, and the capacity the buffers need
+        (above the count when a chunk overflowed its region: grow to it and call again).
+    """
+    cap = o_i.shape[0]
+    bounds = np.empty(T + 1, np.int64)
+    base = np.empty(T + 1, np.int64)
+    counts = np.zeros(T, np.int64)
+    chunk_regions(n_pairs, cap, T, bounds, base)
+    for c in prange(T):
+        counts[c] = _pair_contacts(bounds[c], bounds[c + 1], pos, vel6, radius, group, pair_law,
+                                   law_param, pairs, alert, h, base[c], base[c + 1], o_i, o_j,
+                                   o_sub, o_key, o_frame, o_gap, o_mu, o_ri, o_rj) - base[c]
+    n_pair, need = chunks_needed(base, counts)
+    if need > cap:
+        return n_pair, n_pair, need
+    _compact(0, base, counts, o_i, o_j, o_sub, o_key, o_frame, o_gap, o_mu, o_ri, o_rj)
+    # the sphere–wall contacts after them, the same way on the rest of the buffers
+    ns = sphere_ids.shape[0]
+    chunk_regions(ns, cap - n_pair, T, bounds, base)
+    for c in range(T + 1):
+        base[c] += n_pair
+    for c in prange(T):
+        counts[c] = _wall_range(bounds[c], bounds[c + 1], base[c], base[c + 1], pos, vel6,
+                                radius, kind, group, axis, height, caps, pair_law, law_param,
+                                sphere_ids, wall_ids, alert, h,
+                                o_i, o_j, o_sub, o_key, o_frame, o_gap, o_mu, o_ri, o_rj) - base[c]
+    n_wall, need = chunks_needed(base, counts)
+    if need > cap - n_pair:
+        return n_pair + n_wall, n_pair, n_pair + need
+    _compact(n_pair, base, counts, o_i, o_j, o_sub, o_key, o_frame, o_gap, o_mu, o_ri, o_rj)
+    k = n_pair + n_wall
+    return k, n_pair, k
+
+
+@njit(cache=True)
+def _compact(k, base, counts, o_i, o_j, o_sub, o_key, o_frame, o_gap, o_mu, o_ri, o_rj):
+    """Move the rows that chunk ``c`` wrote from ``base[c]`` on down to follow each other
+    from row ``k`` on (chunk 0 starts at ``k`` already)."""
+    k += counts[0]
+    for c in range(1, counts.shape[0]):
+        src = base[c]
+        for m in range(counts[c]):
+            o_i[k] = o_i[src + m]
+            o_j[k] = o_j[src + m]
+            o_sub[k] = o_sub[src + m]
+            o_key[k] = o_key[src + m]
+            for d in range(9):
+                o_frame[k, d] = o_frame[src + m, d]
+            o_gap[k] = o_gap[src + m]
+            o_mu[k] = o_mu[src + m]
+            o_ri[k] = o_ri[src + m]
+            o_rj[k] = o_rj[src + m]
+            k += 1

@@ -27,9 +27,10 @@ The contacts are gathered group by group into contiguous scratch arrays before t
 """
 from __future__ import annotations
 
-import numba
 import numpy as np
 from numba import njit, prange
+
+from ..threads import numba_threads
 
 from ..model import DYN_INV_INERTIA, DYN_INV_MASS, DYN_LINE
 from .nlgs import _contact, link_sweep
@@ -243,11 +244,7 @@ def iterate_parallel(T, n, c_i, c_j, frame, w, gterm, mu, ri, rj, impulse, body_
     gather(n, order, c_i, c_j, frame, w, gterm, mu, ri, rj, impulse,
            g_i, g_j, g_frame, g_w, g_gterm, g_mu, g_ri, g_rj, g_imp)
     acc = np.zeros((2 * T, 2))
-    prev = numba.get_num_threads()
-    want = min(T, numba.config.NUMBA_NUM_THREADS)
-    if want != prev:
-        numba.set_num_threads(want)
-    try:
+    with numba_threads(T):
         if anderson > 0:
             from .anderson import run_anderson
 
@@ -260,9 +257,6 @@ def iterate_parallel(T, n, c_i, c_j, frame, w, gterm, mu, ri, rj, impulse, body_
                                      g_rj, g_imp, body_dyn, vel6, relax, tol, max_iter, nl,
                                      link_i, link_j, l_normal, wl, l_unilateral, l_impulse,
                                      l_order, acc)
-    finally:
-        if want != prev:
-            numba.set_num_threads(prev)
     scatter(n, order, g_imp, impulse)
     return it, res
 

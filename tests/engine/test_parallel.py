@@ -177,3 +177,70 @@ def test_parallel_with_wire_and_driven_wall():
     assert abs(b.position[lid, 2] - a.position[lid, 2]) < 1e-9
     np.testing.assert_allclose(b.link_impulse, a.link_impulse, rtol=0,
                                atol=1e-6 * np.abs(a.link_impulse).max() + 1e-15)
+
+
+# -- parallel detection: the serial lists exactly ----------------------------------------
+def _tube_scene():
+    """Grains dropped in a capped cylinder, some touching its side and caps (three
+    sub-contacts per sphere–cylinder pair)."""
+    rng = np.random.default_rng(11)
+    R, H, r = 6e-3, 8.2e-3, 5e-4
+    k = np.arange(-6, 7) * 2.02 * r
+    pts = np.stack(np.meshgrid(k, k, np.arange(8) * 2.02 * r + r, indexing="ij"), -1)
+    pts = pts.reshape(-1, 3)
+    pts = pts[np.hypot(pts[:, 0], pts[:, 1]) <= R - r]
+    s = Scene(gravity=(0, 0, -G))
+    s.add_spheres(pts, r * rng.uniform(0.9, 1.0, len(pts)), density=2650.0)
+    s.add_cylinder(center=(0, 0, 0), axis=(0, 0, 1), radius=R, height=H, group="wall",
+                   bottom=True, top=True)
+    s.interact("sand", "sand", laws.Coulomb(mu=0.3))
+    s.interact("sand", "wall", laws.Coulomb(mu=0.2))
+    return s.compile(dt=1e-4, tol=1e-4, max_iter=200)
+
+
+_SCENES = {
+    "fcc box": lambda: fcc_packing(cells=(6, 6, 5), tol=1e-4, max_iter=300),
+    "wire under lid": lambda: wire_under_lid(tol=1e-4, max_iter=300)[:2],
+    "capped tube": _tube_scene,
+}
+
+
+@pytest.mark.parametrize("threads", [2, 3])
+@pytest.mark.parametrize("scene", sorted(_SCENES))
+def test_parallel_detection_gives_the_serial_lists(monkeypatch, scene, threads):
+    """With threads > 1 the broadphase and the narrowphase run in chunks on several threads;
+    the candidate pairs and the contacts (every field, in buffer order) are exactly those
+    of one thread, including when the buffers start empty and must grow."""
+    import engine.contact as contact
+
+    monkeypatch.setattr(contact, "PARALLEL_DETECT_MIN_SPHERES", 0)
+    model, state = _SCENES[scene]()
+    for _ in range(3):
+        step(model, state)
+    par = model.with_options(threads=threads)
+    assert contact._detect_threads(par) == threads and contact._detect_threads(model) == 1
+    for empty in (False, True):
+        a, b = state.copy(), state.copy()
+        if empty:
+            b.pairs = np.zeros((0, 2), np.int32)
+            b.contacts_buf.allocate(0)
+        contact.rebuild_pairs(model, a)
+        contact.rebuild_pairs(par, b)
+        assert a.n_pairs == b.n_pairs > 0
+        assert np.array_equal(a.pairs[:a.n_pairs], b.pairs[:b.n_pairs])
+        contact.detect(model, a)
+        contact.detect(par, b)
+        ca, cb = a.contacts_buf, b.contacts_buf
+        assert (cb.count, cb.n_pair) == (ca.count, ca.n_pair)
+        assert ca.count > ca.n_pair > 0  # both kinds present
+        for f in ("i", "j", "sub", "key", "frame", "gap", "mu", "ri", "rj"):
+            assert np.array_equal(getattr(ca, f)[:ca.count], getattr(cb, f)[:cb.count]), f
+
+
+def test_parallel_detection_only_above_its_size():
+    """A scene below PARALLEL_DETECT_MIN_SPHERES keeps the one-thread detection."""
+    import engine.contact as contact
+
+    model, _ = fcc_packing(cells=(2, 2, 2), threads=2)
+    assert model.n_spheres < contact.PARALLEL_DETECT_MIN_SPHERES
+    assert contact._detect_threads(model) == 1

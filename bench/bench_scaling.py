@@ -17,6 +17,13 @@ steps (tol 1e-4, max_iter 200), then ``steps`` timed steps at ``max_iter`` sweep
 (tol = 0, so every step does exactly ``max_iter`` sweeps: cost per contact-sweep without
 the iteration count mixing in), single thread.
 
+The yardstick in the same run: after the timed steps, ``bench/yardstick.py``'s tight sweep
+and the engine's ``nlgs.sweep`` kernel each do ``sweeps`` sweeps on the same contact
+arrays, in the local body layout that the engine's solve uses at these sizes
+(``nlgs.layout``), interleaved, fastest of ``steps`` runs.  Its growth from 1k to 64k is
+what this machine's memory system does to a minimal kernel on the same data; the ratio of
+the two kernels says whether ours grows faster than that.
+
 Memory: peak RSS above the process's RSS after imports and the numba warm-up (VmHWM reset
 through /proc/self/clear_refs), the tracemalloc peak of numpy allocations, and the bytes
 of every Model/State array split into per-body and per-contact parts.
@@ -84,6 +91,48 @@ def _array_bytes(obj):
     return out
 
 
+def kernels_vs_yardstick(model, state, sweeps, reps):
+    """ns per contact-sweep of the yardstick's and the engine's sweep kernels on the same
+    arrays (the step's contacts in the local layout of ``nlgs.layout``); fastest of
+    ``reps`` runs of ``sweeps`` sweeps each, interleaved."""
+    from engine.solver import nlgs
+    from yardstick import body_inverses, yard_sweep
+
+    c = state.contacts_buf
+    n = c.count
+    nb = model.n_bodies
+    loc = np.full(nb, -1, np.int32)
+    perm = np.empty(nb, np.int32)
+    li = np.empty(n, np.int32)
+    lj = np.empty(n, np.int32)
+    e = np.empty(0, np.int32)
+    k = nlgs.layout(n, c.i, c.j, 0, e, e, loc, perm, li, lj, e.copy(), e.copy())
+    p = perm[:k]
+    body_dyn = np.ascontiguousarray(model.body_dyn[p])
+    inv_m, inv_i = body_inverses(body_dyn)
+    v0 = state.vel6[p].copy()
+    imp0 = c.impulse[:n].copy()
+    best = {"yardstick": np.inf, "engine": np.inf}
+    for _ in range(reps):
+        for name in best:
+            vel = v0.copy()
+            imp = c.impulse
+            imp[:n] = imp0
+            t = time.perf_counter()
+            for _ in range(sweeps):
+                if name == "yardstick":
+                    yard_sweep(n, li, lj, c.frame, c.w, c.gterm, c.mu, c.ri, c.rj, imp, inv_m,
+                               inv_i, vel)
+                else:
+                    nlgs.sweep(n, c.n_pair, li, lj, c.frame, c.w, c.gterm, c.mu, c.ri, c.rj,
+                               imp, body_dyn, vel, 1.0)
+            best[name] = min(best[name], (time.perf_counter() - t) / (sweeps * n) * 1e9)
+    c.impulse[:n] = imp0
+    return dict(yardstick_ns_per_contact_sweep=best["yardstick"],
+                engine_sweep_ns_per_contact_sweep=best["engine"],
+                ratio=best["engine"] / best["yardstick"], contacts=int(n), local_bodies=int(k))
+
+
 def one_size(label, order, prep, steps, sweeps, threads):
     """Child process: measure one size; prints one JSON line."""
     import numba
@@ -98,6 +147,7 @@ def one_size(label, order, prep, steps, sweeps, threads):
     m0, s0 = packing((2, 2, 2), order, threads=threads)
     for _ in range(3):
         step(m0, s0)
+    kernels_vs_yardstick(m0, s0, 1, 1)
     del m0, s0
     base_rss = _status("VmRSS:")
     try:
@@ -138,6 +188,7 @@ def one_size(label, order, prep, steps, sweeps, threads):
         rows.append(ts)
     _, tm_peak = tracemalloc.get_traced_memory()
     tracemalloc.stop()
+    yard = kernels_vs_yardstick(model, state, sweeps, steps)
     peak_rss = _status("VmHWM:")
     nb = model.n_bodies
     nc = int(np.mean([r["contacts"] for r in rows]))
@@ -163,6 +214,7 @@ def one_size(label, order, prep, steps, sweeps, threads):
         step_ns_per_contact_sweep=float(np.median(step_ns)),
         solve_ns_per_contact_sweep=float(np.median(solve_ns)),
         solve_cpu_ns_per_contact_sweep=float(np.median(solve_cpu_ns)),
+        kernels=yard,
         memory=dict(
             baseline_rss_bytes=base_rss, peak_rss_bytes=peak_rss, hwm_reset=hwm_reset,
             peak_rss_above_baseline_bytes=(peak_rss - base_rss) if hwm_reset else None,
@@ -215,7 +267,9 @@ def main(argv=None):
         print(f"{lab:>4}: {r['n_bodies']:6d} bodies {r['n_contacts']:7d} contacts  step "
               f"{r['step_s_median'] * 1e3:8.1f} ms ({a.sweeps} sweeps)  solve "
               f"{r['solve_ns_per_contact_sweep']:5.1f} ns/contact-sweep (cpu "
-              f"{r['solve_cpu_ns_per_contact_sweep']:5.1f})  peak RSS +"
+              f"{r['solve_cpu_ns_per_contact_sweep']:5.1f}; kernel "
+              f"{r['kernels']['engine_sweep_ns_per_contact_sweep']:5.1f} vs yardstick "
+              f"{r['kernels']['yardstick_ns_per_contact_sweep']:5.1f})  peak RSS +"
               f"{(m['peak_rss_above_baseline_bytes'] or 0) / 2**20:6.1f} MiB, "
               f"{m['body_bytes_per_body']:.0f} B/body + {m['contact_bytes_per_contact']:.0f} B/contact",
               flush=True)
@@ -248,11 +302,18 @@ def main(argv=None):
             relative_to_smallest_cpu={r["label"]: r["solve_cpu_ns_per_contact_sweep"] / base_cpu
                                       for r in res},
             max_over_min=worst, max_over_min_cpu=worst_cpu, flat_target=1.3,
+            yardstick_ns_per_contact_sweep={
+                r["label"]: r["kernels"]["yardstick_ns_per_contact_sweep"] for r in res},
+            yardstick_max_over_min=(
+                max(r["kernels"]["yardstick_ns_per_contact_sweep"] for r in res)
+                / min(r["kernels"]["yardstick_ns_per_contact_sweep"] for r in res)),
+            kernel_over_yardstick={r["label"]: r["kernels"]["ratio"] for r in res},
             flat_ok=worst <= 1.3, flat_ok_cpu=worst_cpu <= 1.3,
             memory_target_bytes_per_body=2048, memory_ok=mem_ok),
         total_wall_s=time.perf_counter() - t_all)
     path = record.write("scaling", out, quick=a.quick)
-    print(f"flat: max/min {worst:.2f} (cpu {worst_cpu:.2f}; target <= 1.3); memory ok: {mem_ok}")
+    print(f"flat: max/min {worst:.2f} (cpu {worst_cpu:.2f}; target <= 1.3); yardstick on the "
+          f"same arrays max/min {out['summary']['yardstick_max_over_min']:.2f}; memory ok: {mem_ok}")
     print(f"wrote {path.relative_to(ROOT)}")
     return 0
 

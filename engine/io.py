@@ -321,6 +321,10 @@ def _check_state(model: Model, s: State) -> None:
             raise FormatError(f"state/{name} has shape {getattr(s, name).shape}, expected {shape}")
     if s.warm_impulse.shape != (s.warm_key.shape[0], 3):
         raise FormatError("state/warm_impulse does not match state/warm_key")
+    wk = s.warm_key
+    if wk.size and (wk[0] < 0 or wk[-1] >= 4 * nb * nb or np.any(np.diff(wk) <= 0)):
+        raise FormatError(f"state/warm_key must be strictly increasing contact keys in "
+                          f"[0, 4 nb^2) = [0, {4 * nb * nb}) for this model's {nb} bodies")
     if s.pairs_ref is not None and s.pairs_ref.shape != (nb, 3):
         raise FormatError(f"state/pairs_ref has shape {s.pairs_ref.shape}, expected ({nb}, 3)")
 

@@ -98,3 +98,57 @@ def test_warm_start_at_rest_needs_few_sweeps():
     stats = step(model, state)
     assert stats.converged and stats.n_contacts > 60
     assert stats.iterations <= 3
+
+
+def test_warm_store_and_lookup_match_a_plain_sort_and_dictionary():
+    """The counting-sort warm store gives the keys of np.sort with their impulses, and
+    prepare's per-body lookup warm-starts exactly the contacts whose key was stored (with
+    that impulse), on keys of every kind: sphere–sphere, sphere–wall subs, first and last
+    bodies, empty buckets."""
+    from engine.contact import tangent_frame
+    from engine.model import DYN_INV_MASS
+    from engine.solver import nlgs
+
+    rng = np.random.default_rng(5)
+    nb = 300
+    pairs = {(int(i), int(j), int(s)) for i, j, s in zip(rng.integers(0, nb - 1, 900),
+                                                          rng.integers(1, nb, 900),
+                                                          rng.integers(0, 3, 900)) if i < j}
+    pairs |= {(0, 1, 0), (nb - 2, nb - 1, 2)}
+    cs = np.array(sorted(pairs), np.int64)[rng.permutation(len(pairs))]
+    n = len(cs)
+    key = (cs[:, 0] * nb + cs[:, 1]) * 4 + cs[:, 2]
+    frame = np.empty((n, 9))
+    for a in range(n):
+        nv = rng.normal(size=3)
+        nv /= np.linalg.norm(nv)
+        frame[a, :3] = nv
+        frame[a, 3:] = tangent_frame(*nv)
+    imp = np.column_stack([rng.uniform(0.1, 1, n), rng.normal(0, .05, n), rng.normal(0, .05, n)])
+    keys, glob = nlgs.warm_store(n, key, frame, imp, nb)
+    order = np.argsort(key)
+    assert np.array_equal(keys, key[order])
+    ref = np.einsum("ak,akd->ad", imp, frame.reshape(n, 3, 3))
+    np.testing.assert_allclose(glob, ref[order], rtol=1e-14, atol=1e-16)
+    # next step: a shuffled mix of kept and new contacts, on the same bodies
+    keep = rng.random(n) < 0.7
+    new = np.array([k for k in (rng.integers(0, nb - 1, 400) * nb + rng.integers(1, nb, 400)) * 4
+                    if k not in set(key.tolist())][:100], np.int64)
+    k2 = np.concatenate([key[keep], new])[rng.permutation(keep.sum() + len(new))]
+    m = len(k2)
+    ci = (k2 // 4 // nb).astype(np.int32)
+    cj = (k2 // 4 % nb).astype(np.int32)
+    body_dyn = np.zeros((nb, 8))
+    body_dyn[:, DYN_INV_MASS] = 1.0
+    f2 = np.tile(np.array([0, 0, 1, 1, 0, 0, 0, 1, 0.0]), (m, 1))
+    imp2 = np.zeros((m, 3))
+    hits = nlgs.prepare(m, ci, cj, k2, f2, np.zeros(m), np.ones(m), np.ones(m), np.empty((m, 4)),
+                        np.empty(m), imp2, body_dyn, np.zeros((nb, 6)), keys, glob, 1e-3, nb)
+    stored = dict(zip(keys.tolist(), glob))
+    for a in range(m):
+        g = stored.get(int(k2[a]))
+        if g is not None and g[2] > 0:  # kept, pressing along this frame's normal (z)
+            np.testing.assert_array_equal(imp2[a], [g[2], g[0], g[1]])
+        else:
+            assert not imp2[a].any()
+    assert hits == sum(1 for k in k2.tolist() if k in stored and stored[k][2] > 0) > 50

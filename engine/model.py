@@ -54,8 +54,8 @@ class Options(BaseModel):
     anderson : int
         Depth m of the Anderson acceleration of the NLGS sweeps, in [0, 16] (0: plain
         Gauss–Seidel).  The convergence test is the same (:mod:`engine.solver.anderson`).
-        With ``threads > 1`` the parallel sweeps are mixed the same way (the mixing pass
-        runs on one thread).
+        With ``threads > 1`` the parallel sweeps are mixed the same way, the mixing passes
+        on the same threads.
     threads : int
         NLGS threads, in [1, 64].  1 (the default): the serial Gauss–Seidel sweep.  T > 1:
         the domain-decomposed Gauss–Seidel of :mod:`engine.solver.parallel` (T domains swept

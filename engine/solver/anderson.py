@@ -27,13 +27,20 @@ the rest of the step after ``STALL_MIXINGS`` mixings in a row without a new lowe
 residual (the remaining sweeps are plain Gauss–Seidel).  The small normal
 equations are solved with a Tikhonov shift of 1e-10 of their trace.
 
+With ``T > 1`` threads (``Options.threads``) the mixing runs on the threads too: the
+history pass on ``T`` contiguous chunks of the contacts (partial Gram sums added in chunk
+order, so the result depends on ``T`` only), and the update, which moves body velocities,
+group by group in the race-free phases of the parallel sweep
+(:func:`engine.solver.parallel.sweep_groups`).  With one thread the passes are the serial
+loops, bit for bit.
+
 Work arrays are kept in :class:`Workspace` (grown on demand, never shrunk), so a step
 allocates nothing: m × (3 n_contacts + n_links) × 2 floats of history.
 """
 from __future__ import annotations
 
 import numpy as np
-from numba import njit
+from numba import njit, prange
 
 from .local import project_disk
 from .nlgs import _apply, _apply_link, sweep_all
@@ -131,6 +138,152 @@ def _solve_small(k, gram, rhs, mat, gamma):
     return True
 
 
+@njit(cache=True, inline="always")
+def _history_range(a0, a1, c, col, k, w, impulse, x, f, g, df, dg, pg, pr):
+    """Contacts a0..a1 of the history pass: new residual f = W (G(x) − x), history columns
+    ``col`` of ΔF and ΔG, and their partial Gram row and right-hand side in row ``c`` of
+    ``pg``, ``pr``."""
+    for b in range(k):
+        pg[c, b] = 0.0
+        pr[c, b] = 0.0
+    for a in range(a0, a1):
+        wn = w[a, 0]
+        wt = w[a, 1]
+        f0 = wn * (impulse[a, 0] - x[a, 0])
+        f1 = wt * (impulse[a, 1] - x[a, 1])
+        f2 = wt * (impulse[a, 2] - x[a, 2])
+        d0 = f0 - f[a, 0]
+        d1 = f1 - f[a, 1]
+        d2 = f2 - f[a, 2]
+        df[col, a, 0] = d0
+        df[col, a, 1] = d1
+        df[col, a, 2] = d2
+        f[a, 0] = f0
+        f[a, 1] = f1
+        f[a, 2] = f2
+        for d in range(3):
+            dg[col, a, d] = impulse[a, d] - g[a, d]
+            g[a, d] = impulse[a, d]
+        for b in range(k):
+            e0 = df[b, a, 0]
+            e1 = df[b, a, 1]
+            e2 = df[b, a, 2]
+            pg[c, b] += d0 * e0 + d1 * e1 + d2 * e2
+            pr[c, b] += e0 * f0 + e1 * f1 + e2 * f2
+
+
+@njit(cache=True, inline="always")
+def _start_range(a0, a1, w, impulse, x, f, g):
+    """Contacts a0..a1 of the first history pass: f = W (G(x) − x), g = G(x)."""
+    for a in range(a0, a1):
+        wn = w[a, 0]
+        wt = w[a, 1]
+        f[a, 0] = wn * (impulse[a, 0] - x[a, 0])
+        f[a, 1] = wt * (impulse[a, 1] - x[a, 1])
+        f[a, 2] = wt * (impulse[a, 2] - x[a, 2])
+        for d in range(3):
+            g[a, d] = impulse[a, d]
+
+
+@njit(cache=True, inline="always")
+def _copy_range(a0, a1, impulse, x):
+    """x ← G(x) on contacts a0..a1."""
+    for a in range(a0, a1):
+        for d in range(3):
+            x[a, d] = impulse[a, d]
+
+
+@njit(cache=True, inline="always")
+def _mix_range(a0, a1, k, gamma, dg, w, mu, frame, c_i, c_j, ri, rj, impulse, body_dyn, vel6,
+               x, guard):
+    """x ← Π(G(x) − ΔG γ) on contacts a0..a1, the body velocities moved by the change.
+    ``guard``: write mobile bodies only (a parallel group, :func:`engine.solver.nlgs._apply`)."""
+    for a in range(a0, a1):
+        pn = impulse[a, 0]
+        pt = impulse[a, 1]
+        ps = impulse[a, 2]
+        if w[a, 0] > 0.0:
+            for b in range(k):
+                gb = gamma[b]
+                pn -= gb * dg[b, a, 0]
+                pt -= gb * dg[b, a, 1]
+                ps -= gb * dg[b, a, 2]
+            if pn < 0.0:
+                pn = 0.0
+            pt, ps = project_disk(pt, ps, mu[a] * pn)
+            dpn = pn - impulse[a, 0]
+            dpt = pt - impulse[a, 1]
+            dps = ps - impulse[a, 2]
+            if dpn != 0.0 or dpt != 0.0 or dps != 0.0:
+                tx = frame[a, 3]
+                ty = frame[a, 4]
+                tz = frame[a, 5]
+                sx = frame[a, 6]
+                sy = frame[a, 7]
+                sz = frame[a, 8]
+                px = dpn * frame[a, 0] + dpt * tx + dps * sx
+                py = dpn * frame[a, 1] + dpt * ty + dps * sy
+                pz = dpn * frame[a, 2] + dpt * tz + dps * sz
+                if guard:
+                    _apply(c_i[a], c_j[a], ri[a], rj[a], px, py, pz, dpt, dps, tx, ty, tz,
+                           sx, sy, sz, body_dyn, vel6, True, True)
+                else:
+                    _apply(c_i[a], c_j[a], ri[a], rj[a], px, py, pz, dpt, dps, tx, ty, tz,
+                           sx, sy, sz, body_dyn, vel6, True)
+            impulse[a, 0] = pn
+            impulse[a, 1] = pt
+            impulse[a, 2] = ps
+        x[a, 0] = pn
+        x[a, 1] = pt
+        x[a, 2] = ps
+
+
+@njit(cache=True, parallel=True)
+def _history_chunks(T, n, col, k, have_prev, w, impulse, x, f, g, df, dg, pg, pr):
+    """The history pass (or the first one, ``have_prev`` False) on ``T`` contiguous chunks
+    of the contacts at once; partial sums in rows 0..T-1 of ``pg``, ``pr``."""
+    for c in prange(T):
+        a0 = (n * c) // T
+        a1 = (n * (c + 1)) // T
+        if have_prev:
+            _history_range(a0, a1, c, col, k, w, impulse, x, f, g, df, dg, pg, pr)
+        else:
+            _start_range(a0, a1, w, impulse, x, f, g)
+
+
+@njit(cache=True, parallel=True)
+def _copy_chunks(T, n, impulse, x):
+    for c in prange(T):
+        _copy_range((n * c) // T, (n * (c + 1)) // T, impulse, x)
+
+
+@njit(cache=True, parallel=True)
+def _mix_phase(first, count, stride, start, k, gamma, dg, w, mu, frame, c_i, c_j, ri, rj,
+               impulse, body_dyn, vel6, x):
+    """The mixing update of groups first, first + stride, ... at once, one per thread."""
+    for q in prange(count):
+        gi = first + q * stride
+        _mix_range(start[gi], start[gi + 1], k, gamma, dg, w, mu, frame, c_i, c_j, ri, rj,
+                   impulse, body_dyn, vel6, x, True)
+
+
+@njit(cache=True)
+def _mix_groups(T, start, k, gamma, dg, w, mu, frame, c_i, c_j, ri, rj, impulse, body_dyn,
+                vel6, x):
+    """The mixing update on the contact groups of :func:`engine.solver.parallel.partition`,
+    in the phases of its sweep (no two threads write the same body)."""
+    ng = 2 * T
+    _mix_phase(0, T, 1, start, k, gamma, dg, w, mu, frame, c_i, c_j, ri, rj, impulse,
+               body_dyn, vel6, x)
+    for parity in range(2):
+        cnt = (T - 1 - parity + 1) // 2
+        if cnt > 0:
+            _mix_phase(T + parity, cnt, 2, start, k, gamma, dg, w, mu, frame, c_i, c_j, ri, rj,
+                       impulse, body_dyn, vel6, x)
+    _mix_range(start[ng - 1], start[ng], k, gamma, dg, w, mu, frame, c_i, c_j, ri, rj,
+               impulse, body_dyn, vel6, x, False)
+
+
 @njit(cache=True)
 def iterate_anderson(n, n_pair, c_i, c_j, frame, w, gterm, mu, ri, rj, impulse, body_dyn, vel6,
                      relax, tol, max_iter, nl, link_i, link_j, l_normal, wl, l_unilateral,
@@ -148,6 +301,8 @@ def iterate_anderson(n, n_pair, c_i, c_j, frame, w, gterm, mu, ri, rj, impulse, 
             x[a, d] = impulse[a, d]
     for l in range(nl):
         xl[l] = l_impulse[l]
+    pg = np.zeros((T, m))  # per-chunk partial Gram rows and right-hand sides
+    pr = np.zeros((T, m))
     k = 0          # history columns filled
     head = 0       # next column to overwrite (ring)
     have_prev = False
@@ -189,33 +344,16 @@ def iterate_anderson(n, n_pair, c_i, c_j, frame, w, gterm, mu, ri, rj, impulse, 
             if k < m:
                 k += 1
             head = (head + 1) % m
+            if T > 1:
+                _history_chunks(T, n, col, k, True, w, impulse, x, f, g, df, dg, pg, pr)
+            else:
+                _history_range(0, n, 0, col, k, w, impulse, x, f, g, df, dg, pg, pr)
             for b in range(k):
                 gram[col, b] = 0.0
                 rhs[b] = 0.0
-            for a in range(n):
-                wn = w[a, 0]
-                wt = w[a, 1]
-                f0 = wn * (impulse[a, 0] - x[a, 0])
-                f1 = wt * (impulse[a, 1] - x[a, 1])
-                f2 = wt * (impulse[a, 2] - x[a, 2])
-                d0 = f0 - f[a, 0]
-                d1 = f1 - f[a, 1]
-                d2 = f2 - f[a, 2]
-                df[col, a, 0] = d0
-                df[col, a, 1] = d1
-                df[col, a, 2] = d2
-                f[a, 0] = f0
-                f[a, 1] = f1
-                f[a, 2] = f2
-                for d in range(3):
-                    dg[col, a, d] = impulse[a, d] - g[a, d]
-                    g[a, d] = impulse[a, d]
-                for b in range(k):
-                    e0 = df[b, a, 0]
-                    e1 = df[b, a, 1]
-                    e2 = df[b, a, 2]
-                    gram[col, b] += d0 * e0 + d1 * e1 + d2 * e2
-                    rhs[b] += e0 * f0 + e1 * f1 + e2 * f2
+                for c in range(T):
+                    gram[col, b] += pg[c, b]
+                    rhs[b] += pr[c, b]
             for l in range(nl):
                 f0 = wl[l, 0] * (l_impulse[l] - xl[l])
                 d0 = f0 - fl[l]
@@ -229,14 +367,10 @@ def iterate_anderson(n, n_pair, c_i, c_j, frame, w, gterm, mu, ri, rj, impulse, 
             for b in range(k):
                 gram[b, col] = gram[col, b]
         else:
-            for a in range(n):
-                wn = w[a, 0]
-                wt = w[a, 1]
-                f[a, 0] = wn * (impulse[a, 0] - x[a, 0])
-                f[a, 1] = wt * (impulse[a, 1] - x[a, 1])
-                f[a, 2] = wt * (impulse[a, 2] - x[a, 2])
-                for d in range(3):
-                    g[a, d] = impulse[a, d]
+            if T > 1:
+                _history_chunks(T, n, 0, 0, False, w, impulse, x, f, g, df, dg, pg, pr)
+            else:
+                _start_range(0, n, w, impulse, x, f, g)
             for l in range(nl):
                 fl[l] = wl[l, 0] * (l_impulse[l] - xl[l])
                 gl[l] = l_impulse[l]
@@ -244,47 +378,20 @@ def iterate_anderson(n, n_pair, c_i, c_j, frame, w, gterm, mu, ri, rj, impulse, 
         mixed = k > 0 and _solve_small(k, gram, rhs, mat, gamma)
         if not mixed:
             # x <- G(x): nothing to change
-            for a in range(n):
-                for d in range(3):
-                    x[a, d] = impulse[a, d]
+            if T > 1:
+                _copy_chunks(T, n, impulse, x)
+            else:
+                _copy_range(0, n, impulse, x)
             for l in range(nl):
                 xl[l] = l_impulse[l]
             continue
         # x <- Π(G(x) - ΔG γ), velocities moved by the change
-        for a in range(n):
-            pn = impulse[a, 0]
-            pt = impulse[a, 1]
-            ps = impulse[a, 2]
-            if w[a, 0] > 0.0:
-                for b in range(k):
-                    gb = gamma[b]
-                    pn -= gb * dg[b, a, 0]
-                    pt -= gb * dg[b, a, 1]
-                    ps -= gb * dg[b, a, 2]
-                if pn < 0.0:
-                    pn = 0.0
-                pt, ps = project_disk(pt, ps, mu[a] * pn)
-                dpn = pn - impulse[a, 0]
-                dpt = pt - impulse[a, 1]
-                dps = ps - impulse[a, 2]
-                if dpn != 0.0 or dpt != 0.0 or dps != 0.0:
-                    tx = frame[a, 3]
-                    ty = frame[a, 4]
-                    tz = frame[a, 5]
-                    sx = frame[a, 6]
-                    sy = frame[a, 7]
-                    sz = frame[a, 8]
-                    _apply(c_i[a], c_j[a], ri[a], rj[a],
-                           dpn * frame[a, 0] + dpt * tx + dps * sx,
-                           dpn * frame[a, 1] + dpt * ty + dps * sy,
-                           dpn * frame[a, 2] + dpt * tz + dps * sz,
-                           dpt, dps, tx, ty, tz, sx, sy, sz, body_dyn, vel6, True)
-                impulse[a, 0] = pn
-                impulse[a, 1] = pt
-                impulse[a, 2] = ps
-            x[a, 0] = pn
-            x[a, 1] = pt
-            x[a, 2] = ps
+        if T > 1:
+            _mix_groups(T, start, k, gamma, dg, w, mu, frame, c_i, c_j, ri, rj, impulse,
+                        body_dyn, vel6, x)
+        else:
+            _mix_range(0, n, k, gamma, dg, w, mu, frame, c_i, c_j, ri, rj, impulse, body_dyn,
+                       vel6, x, False)
         for l in range(nl):
             lam = l_impulse[l]
             if wl[l, 1] != 0.0:

@@ -223,7 +223,7 @@ def iterate_parallel(T, n, c_i, c_j, frame, w, gterm, mu, ri, rj, impulse, body_
     ``c_i, c_j, body_dyn, vel6`` are in the local numbering of
     :func:`engine.solver.nlgs.layout`.  Runs on min(T, numba's thread count) threads; the
     result depends on ``T`` only.  With ``anderson = m > 0`` the sweeps are mixed as in
-    :mod:`engine.solver.anderson` (the mixing pass itself runs on one thread), with the
+    :mod:`engine.solver.anderson` (its passes on the same threads), with the
     history buffers of ``workspace``.
     """
     T = int(T)

@@ -7,6 +7,10 @@ bottleneck).  Targets: cylinder triaxial at scale 1 under 10 min; slope under 1 
 
 Usage: python bench/bench_experiments.py [--scale-cyl 0.2] [--scale-box 0.2] [--scale-slope 0.1]
                                         [--tests cylinder_triaxial,box_triaxial,slope_deposit]
+                                        [--threads T] [--slope-steps N]
+
+``--slope-steps N`` stops the slope deposit after N steps (default: the paper's 4 000, or
+rest): a timing sample of the first N steps, e.g. to compare thread counts at scale 1.
 Writes bench/results/experiments-YYYYMMDD-HHMM.json.
 """
 from __future__ import annotations
@@ -34,12 +38,12 @@ PAPER = {"cylinder_triaxial": (7300, 2000), "box_triaxial": (8000, 100000),
          "slope_deposit": (28900, 4000)}
 
 
-def measure(name, fn, scale, tmp, threads=1):
+def measure(name, fn, scale, tmp, threads=1, **kw):
     path = os.path.join(tmp, f"{name}.h5")
     t = time.perf_counter()
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
-        r = fn(scale, history=path, progress=True, threads=threads)
+        r = fn(scale, history=path, progress=True, threads=threads, **kw)
     wall = time.perf_counter() - t
     h = read_history(path, frames=False)
     bodies = r.params["n_sand"] + r.params["n_beads"]
@@ -51,12 +55,17 @@ def measure(name, fn, scale, tmp, threads=1):
                seconds_per_step=wall / steps, mean_sweeps=sweeps,
                non_converged_share=r.convergence["share"], anderson=r.params.get("anderson"),
                threads=threads, interrupted=r.convergence.get("interrupted"),
+               step_limit=kw.get("steps"),
+               stepping_seconds=r.convergence.get("wall_time"),
+               setup_seconds=wall - r.convergence.get("wall_time", 0.0),
+               seconds_per_step_stepping=r.convergence.get("wall_time", wall) / steps,
                at_rest=getattr(r, "at_rest", None),
                paper_bodies=pb, paper_steps=ps,
                projected_scale1_seconds_for_our_steps=per_body_step * pb * steps,
                projected_scale1_seconds_for_paper_steps=per_body_step * pb * ps)
     print(f"{name:18s} scale {scale:5.3f}: {bodies:6d} bodies, {steps:6d} steps, {wall:7.1f} s "
-          f"({1e3 * wall / steps:.1f} ms/step, {sweeps:.0f} sweeps/step, "
+          f"({1e3 * wall / steps:.1f} ms/step; stepping alone "
+          f"{1e3 * row['seconds_per_step_stepping']:.1f} ms/step, {sweeps:.0f} sweeps/step, "
           f"{r.convergence['share']:.0%} not converged); projected at scale 1 "
           f"({pb} bodies × {ps} steps): {per_body_step * pb * ps / 60:.1f} min")
     return row
@@ -71,7 +80,11 @@ def main():
                     help="comma-separated subset of the three tests")
     ap.add_argument("--threads", type=int, default=1,
                     help="NLGS threads of every test (docs/speed.md: 2 pays on large samples)")
+    ap.add_argument("--slope-steps", type=int, default=None,
+                    help="stop the slope deposit after this many steps (a timing sample)")
     a = ap.parse_args()
+    if a.slope_steps is not None and a.slope_steps < 1:
+        ap.error(f"--slope-steps must be >= 1, got {a.slope_steps}")
     tests = [t.strip() for t in a.tests.split(",") if t.strip()]
     known = {"cylinder_triaxial": (cylinder_triaxial, a.scale_cyl),
              "box_triaxial": (box_triaxial, a.scale_box),
@@ -84,7 +97,8 @@ def main():
     with tempfile.TemporaryDirectory() as tmp:
         for t in tests:
             fn, scale = known[t]
-            out["runs"].append(measure(t, fn, scale, tmp, a.threads))
+            kw = {"steps": a.slope_steps} if t == "slope_deposit" and a.slope_steps else {}
+            out["runs"].append(measure(t, fn, scale, tmp, a.threads, **kw))
     out["targets_seconds"] = {"cylinder_triaxial": 600, "slope_deposit": 3600}
     out["busy"] = busy.finish()
     os.makedirs(os.path.join(os.path.dirname(__file__), "results"), exist_ok=True)

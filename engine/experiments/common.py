@@ -117,6 +117,7 @@ class Stages:
     def __init__(self, model, state, writers, *, progress, total, desc):
         self.model, self.state, self.writers = model, state, list(writers)
         self.steps = 0
+        self.wall_time = 0.0  # [s] spent in the steps (writers included), not in the set-up
         self.non_converged = []
         self.interrupted = False
         self.bar = None
@@ -131,6 +132,7 @@ class Stages:
             warnings.simplefilter("ignore", NonConvergenceWarning)
             s = run(self.model, self.state, int(n), writers=self.writers, progress=False)
         self.steps += s.steps
+        self.wall_time += s.wall_time
         self.non_converged += s.non_converged
         if self.bar is not None:
             self.bar.update(s.steps)
@@ -146,7 +148,7 @@ class Stages:
     def convergence(self, limit):
         share = len(self.non_converged) / self.steps if self.steps else 0.0
         return dict(steps=self.steps, non_converged=len(self.non_converged), share=share,
-                    limit=limit, interrupted=self.interrupted,
+                    limit=limit, interrupted=self.interrupted, wall_time=self.wall_time,
                     non_converged_steps=self.non_converged[:1000])
 
 

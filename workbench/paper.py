@@ -215,6 +215,8 @@ def paper_case(*, test: str, name: str, wire: str, k=None, seed: int = 0, runs_d
     arr = {}
     if test == "slope_deposit":
         p = res.profile
+        if p is None:
+            raise RuntimeError(f"{name}: {res.params['profile_error']}")
         arr.update(r=p.r, height=p.height, pressure=p.pressure, height_fit=p.height_fit.coeffs,
                    pressure_fit=p.pressure_fit.coeffs, max_slope_deg=p.max_slope_deg,
                    linear_slope_deg=_linear_slope(p.r, p.height))

@@ -3,6 +3,7 @@ plane" of equal fixed beads on a hexagonal lattice, run under gravity until it i
 from __future__ import annotations
 
 import math
+import warnings
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -27,10 +28,13 @@ class SlopeResult:
     Attributes
     ----------
     name : str
-    profile : engine.analysis.SlopeProfile     h(r), p(r), regressions, max slope (Fig. 10).
-    max_slope_deg : float [deg]
+    profile : engine.analysis.SlopeProfile     h(r), p(r), regressions, max slope (Fig. 10);
+                                               None when the run stopped (``steps``, Ctrl-C)
+                                               before the heap spread over enough radial
+                                               bins to fit (``params["profile_error"]``).
+    max_slope_deg : float [deg]                (nan without a profile)
     sector_heights : (n_r, n_sectors) [m]      heap height per radial bin and angular sector
-                                               (axisymmetry check).
+                                               (axisymmetry check; (0, 8) without a profile).
     floor_force : float [N]                    vertical force on the rubber plane.
     weight : float [N]                         weight of the sample.
     time, kinetic_energy : (n,) [s], [J]       of the sample (sand and wire) per record.
@@ -156,23 +160,34 @@ def slope_deposit(scale: float = 0.02, *, wire: bool = True, wire_density: float
     finally:
         stages.close()
         hist.close()
-    prof = slope_profile(model, state, floor=rubber, center=(0.0, 0.0), r_max=floor_extent * R,
-                         n_bins=12, n_sectors=8, degree=1 if not wire else 3)
-    # per-sector heights for the axisymmetry check
-    hp = np.setdiff1d(model.sphere_ids, rubber)
-    x = state.position[hp]
-    rr = np.hypot(x[:, 0], x[:, 1])
-    rb = np.clip(np.digitize(rr, prof.r_edges) - 1, 0, len(prof.r) - 1)
-    sec = ((np.arctan2(x[:, 1], x[:, 0]) + np.pi) / (2 * np.pi) * 8).astype(int) % 8
-    sector_h = np.full((len(prof.r), 8), np.nan)
-    np.fmax.at(sector_h, (rb, sec), x[:, 2] + model.body_radius[hp] - lift)
+    profile_error = None
+    try:
+        prof = slope_profile(model, state, floor=rubber, center=(0.0, 0.0),
+                             r_max=floor_extent * R, n_bins=12, n_sectors=8,
+                             degree=1 if not wire else 3)
+    except ValueError as e:  # stopped (steps, Ctrl-C) before the heap spread over the floor
+        prof = None
+        profile_error = (f"no slope profile after {stages.steps} steps ({e}): the heap has not "
+                         f"spread over the floor yet")
+        warnings.warn(f"slope_deposit: {profile_error}; the result has profile=None and "
+                      f"max_slope_deg=nan", RuntimeWarning, stacklevel=2)
+    sector_h = np.full((0, 8), np.nan)
+    if prof is not None:  # per-sector heights for the axisymmetry check
+        hp = np.setdiff1d(model.sphere_ids, rubber)
+        x = state.position[hp]
+        rr = np.hypot(x[:, 0], x[:, 1])
+        rb = np.clip(np.digitize(rr, prof.r_edges) - 1, 0, len(prof.r) - 1)
+        sec = ((np.arctan2(x[:, 1], x[:, 0]) + np.pi) / (2 * np.pi) * 8).astype(int) % 8
+        sector_h = np.full((len(prof.r), 8), np.nan)
+        np.fmax.at(sector_h, (rb, sec), x[:, 2] + model.body_radius[hp] - lift)
     c = state.contacts
     on_j, on_i = np.isin(c.j, rubber), np.isin(c.i, rubber)
     fz = float(-c.force[on_j & ~on_i, 2].sum() + c.force[on_i & ~on_j, 2].sum())
     weight = float(model.body_mass[ids].sum() * G)
     chains1 = wire_chains(model, state) if wire else []
     res = SlopeResult(
-        name="slope_deposit", profile=prof, max_slope_deg=prof.max_slope_deg,
+        name="slope_deposit", profile=prof,
+        max_slope_deg=prof.max_slope_deg if prof is not None else float("nan"),
         sector_heights=sector_h, floor_force=-fz, weight=weight,
         time=rec.array("time"), kinetic_energy=rec.array("kinetic_energy"),
         wire_before=wire_stats(chains0, sample.container.volume) if wire else None,
@@ -187,5 +202,6 @@ def slope_deposit(scale: float = 0.02, *, wire: bool = True, wire_density: float
                     max_iter=max_iter, anderson=anderson, threads=threads, mu=mu, mu_floor=mu_floor,
                     mu_wire=mu_wire, seed=seed,
                     n_sand=int(sample.sand_radii.size), n_beads=sample.n_beads,
-                    friction_angle_deg=math.degrees(math.atan(mu))))
+                    friction_angle_deg=math.degrees(math.atan(mu)),
+                    profile_error=profile_error))
     return finish(res, stages, max_nonconverged)

@@ -79,6 +79,20 @@ def test_histories_reload_to_the_same_arrays(cyl, box):
         np.testing.assert_array_equal(h.time[-n:], r.time)
 
 
+def test_slope_deposit_stopped_early_keeps_its_result(tmp_path):
+    """Stopped before the heap has spread (here after 5 steps, as after a Ctrl-C), the slope
+    deposit still returns its result and history: no profile, max slope nan, a warning that
+    says why."""
+    with pytest.warns(RuntimeWarning, match="no slope profile after 5 steps"):
+        r = slope_deposit(0.02, dt=1e-4, steps=5, history=str(tmp_path / "slope.h5"),
+                          progress=False)
+    assert r.profile is None and np.isnan(r.max_slope_deg) and not r.at_rest
+    assert r.convergence["steps"] == 5 and "not spread" in r.params["profile_error"]
+    assert r.sector_heights.shape == (0, 8)
+    assert r.floor_force >= 0 and r.wire_after is not None
+    assert "nan" in str(r)
+
+
 def test_slope_deposit(tmp_path):
     r = slope_deposit(0.02, dt=1e-4, steps=3000, history=str(tmp_path / "slope.h5"),
                       progress=False)

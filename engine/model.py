@@ -9,7 +9,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 import numpy as np
-from pydantic import BaseModel, ConfigDict, Field, field_validator
+from pydantic import BaseModel, ConfigDict, Field, field_validator, model_validator
 
 #: ``body_kind`` codes.
 SPHERE, PLANE, CYLINDER = 0, 1, 2
@@ -56,6 +56,12 @@ class Options(BaseModel):
         Gauss–Seidel).  The convergence test is the same (:mod:`engine.solver.anderson`).
         With ``threads > 1`` the parallel sweeps are mixed the same way, the mixing passes
         on the same threads.
+    hot_sweeps : int
+        After each full sweep, re-sweep this many times the contacts whose impulse changed
+        most in it (local-velocity change above ``HOT_FACTOR`` = 2 times the mean), in
+        [0, 8] (0, the default: plain sweeps).  The stopping test stays on full sweeps
+        (:func:`engine.solver.nlgs.iterate_hot`).  Serial and unmixed only: refused with
+        ``anderson > 0`` or ``threads > 1``.
     threads : int
         NLGS threads, in [1, 64].  1 (the default): the serial Gauss–Seidel sweep.  T > 1:
         the domain-decomposed Gauss–Seidel of :mod:`engine.solver.parallel` (T domains swept
@@ -75,14 +81,24 @@ class Options(BaseModel):
     gravity: tuple[float, float, float] = (0.0, 0.0, -9.81)
     threads: int = Field(1, ge=1, le=64)
     anderson: int = Field(0, ge=0, le=16)
+    hot_sweeps: int = Field(0, ge=0, le=8)
 
-    @field_validator("threads", "anderson", mode="before")
+    @field_validator("threads", "anderson", "hot_sweeps", mode="before")
     @classmethod
     def _int_not_bool(cls, v, info):
         if isinstance(v, (bool, np.bool_)):
-            rng = "[1, 64]" if info.field_name == "threads" else "[0, 16]"
-            raise ValueError(f"{info.field_name} must be an integer in {rng}, not a bool")
+            rng = {"threads": "[1, 64]", "anderson": "[0, 16]", "hot_sweeps": "[0, 8]"}
+            raise ValueError(f"{info.field_name} must be an integer in "
+                             f"{rng[info.field_name]}, not a bool")
         return v
+
+    @model_validator(mode="after")
+    def _hot_alone(self):
+        if self.hot_sweeps > 0 and (self.anderson > 0 or self.threads > 1):
+            raise ValueError(f"hot_sweeps={self.hot_sweeps} works with the serial unmixed "
+                             f"sweep only: set anderson=0 (got {self.anderson}) and threads=1 "
+                             f"(got {self.threads}), or hot_sweeps=0")
+        return self
 
 
 @dataclass(frozen=True)

@@ -434,7 +434,7 @@ class Scene:
 
     def compile(self, dt: float, theta: float = 0.5, tol: float = 1e-4, max_iter: int = 1000,
                 relax: float = 1.0, alert: float | None = None, skin: float | None = None,
-                threads: int = 1, anderson: int = 0):
+                threads: int = 1, anderson: int = 0, hot_sweeps: int = 0):
         """Freeze the scene into a :class:`Model` and its initial :class:`State`.
 
         Parameters
@@ -451,6 +451,9 @@ class Scene:
         anderson : int in [0, 16]
             Depth of the Anderson acceleration of the NLGS sweeps
             (:attr:`engine.model.Options.anderson`).
+        hot_sweeps : int in [0, 8]
+            Re-sweeps of the contacts that changed most after each full sweep
+            (:attr:`engine.model.Options.hot_sweeps`; serial, unmixed).
 
         Raises
         ------
@@ -469,7 +472,7 @@ class Scene:
         opts = Options(dt=dt, theta=theta, tol=tol, max_iter=max_iter, relax=relax,
                        alert=0.1 * rmin if alert is None else alert,
                        skin=0.5 * rmin if skin is None else skin, gravity=self.gravity,
-                       threads=threads, anderson=anderson)
+                       threads=threads, anderson=anderson, hot_sweeps=hot_sweeps)
 
         dof = np.where(kind == SPHERE, FREE, IMPOSED).astype(np.int8)
         line = np.zeros((nb, 3))

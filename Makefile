@@ -58,6 +58,7 @@ bench: $(STAMP) sysdeps
 	$(PY) bench/bench_wire.py
 	$(PY) bench/bench_scaling.py
 	$(PY) bench/bench_parallel.py
+	$(PY) bench/bench_solvers.py
 	$(PY) bench/tradeoff.py
 	$(PY) bench/bench_prep.py
 	$(PY) bench/bench_render.py

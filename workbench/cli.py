@@ -36,7 +36,7 @@ import sys
 from pathlib import Path
 from typing import Literal, Optional
 
-from pydantic import BaseModel, ConfigDict, Field, ValidationError
+from pydantic import BaseModel, ConfigDict, Field, ValidationError, model_validator
 
 PRESETS = ("beads", "wire", "forces", "torus")
 
@@ -61,11 +61,21 @@ class SolverParams(_Strict):
                           description="NLGS Anderson acceleration depth (0: plain Gauss-Seidel)")
     threads: int = Field(1, ge=1, le=64,
                          description="NLGS threads (2 pays on tens of thousands of contacts)")
+    hot_sweeps: int = Field(0, ge=0, le=8,
+                            description="re-sweeps of the contacts that changed most after "
+                                        "each NLGS sweep (needs anderson = 0 and threads = 1)")
     mu: float = Field(0.5, ge=0, le=10)
     mu_wire: float = Field(0.3, ge=0, le=10)
     max_nonconverged: float = Field(0.25, ge=0, le=1)
     record_every: int = Field(10, ge=1)
     frames: int = Field(100, ge=0)
+
+    @model_validator(mode="after")
+    def _hot_alone(self):
+        if self.hot_sweeps > 0 and (self.anderson > 0 or self.threads > 1):
+            raise ValueError(f"hot_sweeps = {self.hot_sweeps} needs anderson = 0 (got "
+                             f"{self.anderson}) and threads = 1 (got {self.threads})")
+        return self
 
 
 class TriaxialParams(SolverParams):

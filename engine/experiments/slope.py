@@ -91,7 +91,7 @@ def slope_deposit(scale: float = 0.02, *, wire: bool = True, wire_density: float
                   wire_law=None, steps: int = 4000, ke_fraction: float = 1e-4,
                   rubber_radius: float = 0.3e-3, floor_extent: float = 5.0, dt: float = 5e-5,
                   theta: float = 0.5, tol: float = 1e-4, max_iter: int = 1000, anderson: int = 4,
-                  threads: int = 1, mu: float = 0.5,
+                  threads: int = 1, hot_sweeps: int = 0, mu: float = 0.5,
                   mu_floor: float = 0.8, mu_wire: float = 0.3, record_every: int = 20,
                   frames: int = 200, max_nonconverged: float = 0.25,
                   history: str = "out/slope_deposit.h5", seed: int = 0,
@@ -109,7 +109,8 @@ def slope_deposit(scale: float = 0.02, *, wire: bool = True, wire_density: float
     measured at scale 0.1, 8.5 % of the steps hit ``max_iter`` with it against 25 % without
     (docs/speed.md).  ``threads`` (default 1) is the NLGS thread count
     (:attr:`engine.model.Options.threads`); 2 pays only on samples of tens of thousands of
-    contacts (docs/speed.md).
+    contacts (docs/speed.md).  ``hot_sweeps`` (default 0; with ``anderson=0`` only) re-sweeps
+    the contacts that changed most after each sweep (:attr:`engine.model.Options.hot_sweeps`).
     """
     scale = check_scale(scale)
     check_positive("rubber_radius", rubber_radius, "[m]")
@@ -138,7 +139,7 @@ def slope_deposit(scale: float = 0.02, *, wire: bool = True, wire_density: float
             sc.interact("wire", g, laws.Coulomb(mu=mu_wire))
         sc.interact("wire", "rubber", laws.Coulomb(mu=mu_floor))
     model, state = sc.compile(dt=dt, theta=theta, tol=tol, max_iter=max_iter, anderson=anderson,
-                              threads=threads)
+                              threads=threads, hot_sweeps=hot_sweeps)
     chains0 = wire_chains(model, state) if wire else []
 
     rec = Recorder({"time": lambda m, s: s.time,
@@ -199,7 +200,8 @@ def slope_deposit(scale: float = 0.02, *, wire: bool = True, wire_density: float
                     wire_law=repr(law), steps=steps, ke_fraction=ke_fraction,
                     rubber_radius=rubber_radius, n_rubber=int(len(rubber)),
                     floor_extent=floor_extent, dt=dt, theta=theta, tol=tol,
-                    max_iter=max_iter, anderson=anderson, threads=threads, mu=mu, mu_floor=mu_floor,
+                    max_iter=max_iter, anderson=anderson, threads=threads,
+                    hot_sweeps=hot_sweeps, mu=mu, mu_floor=mu_floor,
                     mu_wire=mu_wire, seed=seed,
                     n_sand=int(sample.sand_radii.size), n_beads=sample.n_beads,
                     friction_angle_deg=math.degrees(math.atan(mu)),

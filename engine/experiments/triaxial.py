@@ -19,7 +19,8 @@ at 3e-4, nearly all during the pressure ramp).  ``anderson`` (default 4) is the 
 the NLGS acceleration (:mod:`engine.solver.anderson`, docs/speed.md); 0 gives plain
 Gauss–Seidel.  ``threads`` (default 1) is the NLGS thread count
 (:attr:`engine.model.Options.threads`); 2 pays only on samples of tens of thousands of
-contacts (docs/speed.md).
+contacts (docs/speed.md).  ``hot_sweeps`` (default 0; with ``anderson=0`` only) re-sweeps the
+contacts that changed most after each sweep (:attr:`engine.model.Options.hot_sweeps`).
 
 Between the stages the top wall's drive is switched (:meth:`engine.model.Model.with_drive`).
 A velocity-driven (kinematic) top wall in stage 1 was tried first: on a jammed packing of
@@ -96,7 +97,7 @@ def cylinder_triaxial(scale: float = 0.05, *, pressure: float = 15e3, wire: bool
                       wire_law=None, axial_strain: float = 0.1, strain_rate: float | None = None,
                       target_I: float = 5e-4, allow_dynamic: bool = False, dt: float = 5e-5,
                       theta: float = 0.5, tol: float = 3e-4, max_iter: int = 1000,
-                      relax: float = 1.0, anderson: int = 4, threads: int = 1, mu: float = 0.5,
+                      relax: float = 1.0, anderson: int = 4, threads: int = 1, hot_sweeps: int = 0, mu: float = 0.5,
                       mu_wall: float = 0.5,
                       mu_wire: float = 0.3,
                       iso_tol: float = 0.02, iso_hold: int = 5, iso_max_steps: int = 4000,
@@ -151,7 +152,7 @@ def cylinder_triaxial(scale: float = 0.05, *, pressure: float = 15e3, wire: bool
     sc.fix(floor)
     _laws_for(sc, mu, mu_wall, mu_wire, wire)
     model, state = sc.compile(dt=dt, theta=theta, tol=tol, max_iter=max_iter, relax=relax,
-                              anderson=anderson, threads=threads)
+                              anderson=anderson, threads=threads, hot_sweeps=hot_sweeps)
     conf.apply(model, state)
     x_ref = {}
     stage = {"value": 0}
@@ -225,7 +226,8 @@ def cylinder_triaxial(scale: float = 0.05, *, pressure: float = 15e3, wire: bool
     res = _result("cylinder_triaxial", tri, H0, history)
     res.params = dict(scale=scale, pressure=p, wire=wire, wire_law=repr(law), axial_strain=eps_max,
                       strain_rate=rate, inertial_number=I, loading_velocity=rate * H0, dt=dt,
-                      theta=theta, tol=tol, max_iter=max_iter, anderson=anderson, threads=threads, mu=mu,
+                      theta=theta, tol=tol, max_iter=max_iter, anderson=anderson, threads=threads,
+                      hot_sweeps=hot_sweeps, mu=mu,
                       mu_wall=mu_wall,
                       mu_wire=mu_wire, seed=seed, n_sand=int(sample.sand_radii.size),
                       n_beads=sample.n_beads, d_mean=d_mean, iso_reached=iso_reached)
@@ -343,7 +345,7 @@ def box_triaxial(scale: float = 0.05, *, pressure: float = 15e3, wire: bool = Tr
                  strain_rate: float | None = None, target_I: float = 5e-4,
                  allow_dynamic: bool = False, dt: float = 5e-5, theta: float = 0.5,
                  tol: float = 3e-4, max_iter: int = 1000, relax: float = 1.0,
-                 anderson: int = 4, threads: int = 1, mu: float = 0.5, mu_wall: float = 0.0,
+                 anderson: int = 4, threads: int = 1, hot_sweeps: int = 0, mu: float = 0.5, mu_wall: float = 0.0,
                  mu_wire: float = 0.3, wall_mass: float | None = None, iso_tol: float = 0.02,
                  iso_hold: int = 5, iso_max_steps: int = 4000, check_every: int = 10,
                  ramp_steps: int = 400,
@@ -406,7 +408,7 @@ def box_triaxial(scale: float = 0.05, *, pressure: float = 15e3, wire: bool = Tr
     sc.fix(floor)
     _laws_for(sc, mu, mu_wall, mu_wire, wire)
     model, state = sc.compile(dt=dt, theta=theta, tol=tol, max_iter=max_iter, relax=relax,
-                              anderson=anderson, threads=threads)
+                              anderson=anderson, threads=threads, hot_sweeps=hot_sweeps)
     stage = {"value": 0}
     stage_of = []
     walls = np.array([*sides, top])
@@ -488,7 +490,8 @@ def box_triaxial(scale: float = 0.05, *, pressure: float = 15e3, wire: bool = Tr
     res.params = dict(scale=scale, pressure=p, wire=wire, wire_law=repr(law),
                       bead_radius=sample.bead_radius, axial_strain=eps_max, strain_rate=rate,
                       inertial_number=I, loading_velocity=rate * H0, dt=dt, theta=theta,
-                      tol=tol, max_iter=max_iter, anderson=anderson, threads=threads, mu=mu, mu_wall=mu_wall,
+                      tol=tol, max_iter=max_iter, anderson=anderson, threads=threads,
+                      hot_sweeps=hot_sweeps, mu=mu, mu_wall=mu_wall,
                       mu_wire=mu_wire,
                       wall_mass=wall_mass, seed=seed, n_sand=int(sample.sand_radii.size),
                       n_beads=sample.n_beads, d_mean=d_mean, iso_reached=iso_reached)

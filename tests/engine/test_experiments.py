@@ -153,4 +153,8 @@ def test_threads_and_anderson_reach_the_solver(fn, scale, monkeypatch, tmp_path)
     monkeypatch.setattr(Scene, "compile", spy)
     with pytest.raises(Compiled):
         fn(scale, threads=2, anderson=3, history=str(tmp_path / "x.h5"), progress=False)
-    assert seen["threads"] == 2 and seen["anderson"] == 3
+    assert seen["threads"] == 2 and seen["anderson"] == 3 and seen["hot_sweeps"] == 0
+    seen.clear()
+    with pytest.raises(Compiled):
+        fn(scale, anderson=0, hot_sweeps=2, history=str(tmp_path / "y.h5"), progress=False)
+    assert seen["hot_sweeps"] == 2 and seen["anderson"] == 0

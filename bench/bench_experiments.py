@@ -7,10 +7,12 @@ bottleneck).  Targets: cylinder triaxial at scale 1 under 10 min; slope under 1 
 
 Usage: python bench/bench_experiments.py [--scale-cyl 0.2] [--scale-box 0.2] [--scale-slope 0.1]
                                         [--tests cylinder_triaxial,box_triaxial,slope_deposit]
-                                        [--threads T] [--slope-steps N]
+                                        [--threads T] [--slope-steps N] [--hot-sweeps H]
 
 ``--slope-steps N`` stops the slope deposit after N steps (default: the paper's 4 000, or
 rest): a timing sample of the first N steps, e.g. to compare thread counts at scale 1.
+``--hot-sweeps H`` runs every test with ``anderson=0, hot_sweeps=H`` instead of the tests'
+default ``anderson=4`` (docs/speed.md).
 Writes bench/results/experiments-YYYYMMDD-HHMM.json.
 """
 from __future__ import annotations
@@ -54,6 +56,7 @@ def measure(name, fn, scale, tmp, threads=1, **kw):
     row = dict(test=name, scale=scale, bodies=bodies, steps=steps, wall_seconds=wall,
                seconds_per_step=wall / steps, mean_sweeps=sweeps,
                non_converged_share=r.convergence["share"], anderson=r.params.get("anderson"),
+               hot_sweeps=r.params.get("hot_sweeps"),
                threads=threads, interrupted=r.convergence.get("interrupted"),
                step_limit=kw.get("steps"),
                stepping_seconds=r.convergence.get("wall_time"),
@@ -80,6 +83,9 @@ def main():
                     help="comma-separated subset of the three tests")
     ap.add_argument("--threads", type=int, default=1,
                     help="NLGS threads of every test (docs/speed.md: 2 pays on large samples)")
+    ap.add_argument("--hot-sweeps", type=int, default=0,
+                    help="run with anderson=0 and this many hot re-sweeps (0: the default "
+                         "anderson=4)")
     ap.add_argument("--slope-steps", type=int, default=None,
                     help="stop the slope deposit after this many steps (a timing sample)")
     a = ap.parse_args()
@@ -98,6 +104,8 @@ def main():
         for t in tests:
             fn, scale = known[t]
             kw = {"steps": a.slope_steps} if t == "slope_deposit" and a.slope_steps else {}
+            if a.hot_sweeps:
+                kw.update(anderson=0, hot_sweeps=a.hot_sweeps)
             out["runs"].append(measure(t, fn, scale, tmp, a.threads, **kw))
     out["targets_seconds"] = {"cylinder_triaxial": 600, "slope_deposit": 3600}
     out["busy"] = busy.finish()

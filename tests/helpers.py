@@ -61,6 +61,25 @@ def box_pile(n, width, *, seed=7, theta=0.5, dt=2e-4, tol=1e-8, max_iter=5000, m
     return model, state, box, radii
 
 
+def same_converged_step(plain, other, state):
+    """One step of ``plain`` and of ``other`` (the same scene, other solver options) from
+    copies of ``state``; asserts both converged, that the velocities agree to 1e-6 of the
+    velocity one step of gravity gives and the per-body contact impulses to 1e-8 of the
+    largest (the tolerance-level difference of two converged solutions, tol 1e-10).
+    Returns (stats_plain, stats_other, state_plain, state_other)."""
+    from engine import step
+
+    a_state, b_state = state.copy(), state.copy()
+    a = step(plain, a_state)
+    b = step(other, b_state)
+    assert a.converged and b.converged
+    gh = G * plain.options.dt
+    np.testing.assert_allclose(b_state.vel6, a_state.vel6, rtol=0, atol=1e-6 * gh)
+    na, nb_ = net_contact_impulse(plain, a_state), net_contact_impulse(other, b_state)
+    np.testing.assert_allclose(nb_, na, rtol=0, atol=1e-8 * np.abs(na).max())
+    return a, b, a_state, b_state
+
+
 def net_contact_impulse(model, state):
     """Per-body resultant of the contact impulses (global frame), unique at convergence
     even where the contact impulses are not (hyperstatic packings)."""

@@ -412,12 +412,8 @@ def iterate_hot(n, n_pair, c_i, c_j, frame, w, gterm, mu, ri, rj, impulse, body_
             q[a] = x
             num += x
             den += y
-        if nl > 0:
-            lnum, lden = link_sweep(nl, link_i, link_j, l_normal, wl, l_unilateral, l_impulse,
-                                    body_dyn, vel6, relax, l_order)
-            num += lnum
-            den += lden
-        res = np.sqrt(num / den) if den > 0.0 else 0.0
+        res = links_then_residual(num, den, nl, link_i, link_j, l_normal, wl, l_unilateral,
+                                  l_impulse, body_dyn, vel6, relax, l_order)
         if res < tol:
             return it + 1, res
         if n == 0:
@@ -450,6 +446,16 @@ def sweep_all(n, n_pair, c_i, c_j, frame, w, gterm, mu, ri, rj, impulse, body_dy
     """One sweep of the contacts then the links; returns the Quad residual of the sweep."""
     num, den = sweep(n, n_pair, c_i, c_j, frame, w, gterm, mu, ri, rj, impulse, body_dyn, vel6,
                      relax)
+    return links_then_residual(num, den, nl, link_i, link_j, l_normal, wl, l_unilateral,
+                               l_impulse, body_dyn, vel6, relax, l_order)
+
+
+@njit(cache=True, inline="always")
+def links_then_residual(num, den, nl, link_i, link_j, l_normal, wl, l_unilateral, l_impulse,
+                        body_dyn, vel6, relax, l_order):
+    """The end of every sweep: the links' sweep (if any) added to the contacts' Quad sums
+    ``num``, ``den``, and the Quad residual sqrt(num / den) (0 when nothing carries an
+    impulse)."""
     if nl > 0:
         lnum, lden = link_sweep(nl, link_i, link_j, l_normal, wl, l_unilateral, l_impulse,
                                 body_dyn, vel6, relax, l_order)

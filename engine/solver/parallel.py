@@ -33,7 +33,7 @@ from numba import njit, prange
 from ..threads import numba_threads
 
 from ..model import DYN_INV_INERTIA, DYN_INV_MASS, DYN_LINE
-from .nlgs import _contact, link_sweep
+from .nlgs import _contact, links_then_residual
 
 
 @njit(cache=True)
@@ -189,12 +189,8 @@ def sweep_groups(T, start, c_i, c_j, frame, w, gterm, mu, ri, rj, impulse, body_
     for g in range(ng - 1):
         num += acc[g, 0]
         den += acc[g, 1]
-    if nl > 0:
-        lnum, lden = link_sweep(nl, link_i, link_j, l_normal, wl, l_unilateral, l_impulse,
-                                body_dyn, vel6, relax, l_order)
-        num += lnum
-        den += lden
-    return np.sqrt(num / den) if den > 0.0 else 0.0
+    return links_then_residual(num, den, nl, link_i, link_j, l_normal, wl, l_unilateral,
+                               l_impulse, body_dyn, vel6, relax, l_order)
 
 
 @njit(cache=True)

@@ -7,7 +7,7 @@ from engine import Scene, laws, step
 from engine.model import Options
 from engine.solver import nlgs
 
-from tests.helpers import G, box_pile, net_contact_impulse, wire_under_lid
+from tests.helpers import G, box_pile, same_converged_step, wire_under_lid
 
 
 def fcc_packing(cells=(5, 5, 4), seed=7, shuffle=True, mu=0.3, tol=1e-10, max_iter=20000,
@@ -97,15 +97,8 @@ def test_parallel_step_matches_serial_within_tolerance(pile_states, threads, at)
     model, states = pile_states
     tight = model.with_options(tol=1e-10, max_iter=50000)
     par = tight.with_options(threads=threads)
-    a_state, b_state = states[at].copy(), states[at].copy()
-    a = step(tight, a_state)
-    b = step(par, b_state)
-    assert a.converged and b.converged
+    a, b, a_state, b_state = same_converged_step(tight, par, states[at])
     assert b.iterations <= 1.5 * a.iterations + 10
-    gh = G * model.options.dt  # the velocity that one step of gravity gives
-    np.testing.assert_allclose(b_state.vel6, a_state.vel6, rtol=0, atol=1e-6 * gh)
-    na, nb_ = net_contact_impulse(tight, a_state), net_contact_impulse(par, b_state)
-    np.testing.assert_allclose(nb_, na, rtol=0, atol=1e-8 * np.abs(na).max())
     # same contacts, in the same buffer order
     k = a_state.contacts_buf.count
     assert k > 100

@@ -61,6 +61,22 @@ def box_pile(n, width, *, seed=7, theta=0.5, dt=2e-4, tol=1e-8, max_iter=5000, m
     return model, state, box, radii
 
 
+def assert_option_refused(name, bad):
+    """A bad value of solver option ``name`` is refused, with a ValueError naming it, both
+    by Options and by Scene.compile."""
+    import pytest
+
+    from engine import Scene
+    from engine.model import Options
+
+    with pytest.raises(ValueError, match=name):
+        Options(dt=1e-3, alert=0.0, skin=1e-3, **{name: bad})
+    s = Scene()
+    s.add_spheres([[0, 0, 1e-3]], 1e-3, density=1000.0)
+    with pytest.raises(ValueError, match=name):
+        s.compile(dt=1e-4, **{name: bad})
+
+
 def same_converged_step(plain, other, state):
     """One step of ``plain`` and of ``other`` (the same scene, other solver options) from
     copies of ``state``; asserts both converged, that the velocities agree to 1e-6 of the

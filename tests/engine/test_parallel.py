@@ -7,7 +7,7 @@ from engine import Scene, laws, step
 from engine.model import Options
 from engine.solver import nlgs
 
-from tests.helpers import G, box_pile, same_converged_step, wire_under_lid
+from tests.helpers import G, assert_option_refused, box_pile, same_converged_step, wire_under_lid
 
 
 def fcc_packing(cells=(5, 5, 4), seed=7, shuffle=True, mu=0.3, tol=1e-10, max_iter=20000,
@@ -43,12 +43,7 @@ def test_serial_is_the_default():
 
 @pytest.mark.parametrize("bad", [0, -1, 65, 2.5, "two", True, None])
 def test_threads_is_validated(bad):
-    with pytest.raises(ValueError, match="threads"):
-        Options(dt=1e-3, alert=0.0, skin=1e-3, threads=bad)
-    s = Scene()
-    s.add_spheres([[0, 0, 1e-3]], 1e-3, density=1000.0)
-    with pytest.raises(ValueError, match="threads"):
-        s.compile(dt=1e-4, threads=bad)
+    assert_option_refused("threads", bad)
     model, _ = fcc_packing(cells=(2, 2, 2))
     with pytest.raises(ValueError, match="threads"):
         model.with_options(threads=bad)

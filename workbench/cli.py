@@ -414,7 +414,7 @@ def parser() -> argparse.ArgumentParser:
     pp = sub.add_parser("paper", help="reproduce the paper's §3 (Fig. 7-16, Table 2): a "
                         "Markdown report with figures, runs and series")
     pp.add_argument("--scale", default="default", choices=("tiny", "default", "paper"),
-                    help="tiny: smoke test (minutes); default: small samples (~15 min on 2 "
+                    help="tiny: smoke test (minutes); default: reduced samples (~10 min on 2 "
                          "cores); paper: the paper's sizes (days: use --scheduler)")
     pp.add_argument("--out", default="out/paper", help="output directory (default out/paper)")
     pp.add_argument("--scheduler", default=None,

@@ -13,8 +13,9 @@ For each size (bench_scaling.py's randomly numbered compressed FCC packings): co
   wall time of the step, NLGS sweeps to tolerance, converged or not, and the largest
   velocity difference between the two end states, translation and r × spin, relative to
   g h (the velocity one step of gravity gives);
-* **to tolerance with Anderson mixing** (``anderson=4``, the experiments' default): the same
-  step with 1 and 2 threads, and the 2-thread time against plain serial;
+* **to tolerance with Anderson mixing** (``anderson=4``, the experiments' default) and with
+  hot re-sweeps (``hot_sweeps=2``): the same step with 1 and 2 threads, and the 2-thread
+  time against plain serial;
 * **per sweep**: ``sweeps`` sweeps exactly (tol ~ 0): wall and process CPU time per sweep
   per contact for both, and the speed-up;
 * **detection**: the broadphase (``rebuild_pairs``, the cell-grid search) and the
@@ -49,6 +50,11 @@ from bench_scaling import SIZES, packing  # noqa: E402
 
 #: Depth of the Anderson-accelerated runs (the experiments' default).
 ANDERSON = 4
+#: Re-sweeps of the hot-contact runs (docs/speed.md).
+HOT = 2
+#: The accelerated variants, each run to tolerance on 1 and 2 threads: JSON key, options.
+VARIANTS = {"to_tolerance_anderson": dict(anderson=ANDERSON),
+            "to_tolerance_hot_sweeps": dict(hot_sweeps=HOT)}
 
 
 def measure(label, prep, sweeps, reps, tol):
@@ -63,9 +69,9 @@ def measure(label, prep, sweeps, reps, tol):
     gh = 9.81 * model.options.dt
     tolm = {T: model.with_options(tol=tol, max_iter=2000, threads=T) for T in (1, 2)}
     fixed = {T: model.with_options(tol=1e-300, max_iter=sweeps, threads=T) for T in (1, 2)}
-    aam = {T: tolm[T].with_options(anderson=ANDERSON) for T in (1, 2)}
+    vm = {v: {T: tolm[T].with_options(**o) for T in (1, 2)} for v, o in VARIANTS.items()}
     to_tol = {1: [], 2: []}
-    to_tol_aa = {1: [], 2: []}
+    to_tol_v = {v: {1: [], 2: []} for v in VARIANTS}
     per_sweep = {1: [], 2: []}
     per_sweep_cpu = {1: [], 2: []}
     ends = {}
@@ -78,11 +84,12 @@ def measure(label, prep, sweeps, reps, tol):
                                   residual=st.residual, converged=st.converged,
                                   contacts=st.n_contacts))
             ends[T] = s
-            s = state.copy()
-            t = time.perf_counter()
-            st = step(aam[T], s)
-            to_tol_aa[T].append(dict(wall_s=time.perf_counter() - t, iterations=st.iterations,
-                                     converged=st.converged))
+            for v in VARIANTS:
+                s = state.copy()
+                t = time.perf_counter()
+                st = step(vm[v][T], s)
+                to_tol_v[v][T].append(dict(wall_s=time.perf_counter() - t,
+                                           iterations=st.iterations, converged=st.converged))
             s = state.copy()
             c0 = time.process_time()
             t = time.perf_counter()
@@ -104,15 +111,16 @@ def measure(label, prep, sweeps, reps, tol):
                                       / out["to_tolerance"]["threads2"]["step_wall_s_median"])
     out["to_tolerance"]["iterations_ratio"] = (np.median(out["to_tolerance"]["threads2"]["iterations"])
                                                / np.median(out["to_tolerance"]["threads1"]["iterations"]))
-    aa = {f"threads{T}": dict(step_wall_s_median=med([x["wall_s"] for x in to_tol_aa[T]]),
-                              iterations=[x["iterations"] for x in to_tol_aa[T]],
-                              converged=[x["converged"] for x in to_tol_aa[T]])
-          for T in (1, 2)}
-    aa["anderson"] = ANDERSON
-    aa["speedup"] = aa["threads1"]["step_wall_s_median"] / aa["threads2"]["step_wall_s_median"]
-    aa["speedup_over_plain_serial"] = (out["to_tolerance"]["threads1"]["step_wall_s_median"]
-                                       / aa["threads2"]["step_wall_s_median"])
-    out["to_tolerance_anderson"] = aa
+    for v, o in VARIANTS.items():
+        aa = {f"threads{T}": dict(step_wall_s_median=med([x["wall_s"] for x in to_tol_v[v][T]]),
+                                  iterations=[x["iterations"] for x in to_tol_v[v][T]],
+                                  converged=[x["converged"] for x in to_tol_v[v][T]])
+              for T in (1, 2)}
+        aa.update(o)
+        aa["speedup"] = aa["threads1"]["step_wall_s_median"] / aa["threads2"]["step_wall_s_median"]
+        aa["speedup_over_plain_serial"] = (out["to_tolerance"]["threads1"]["step_wall_s_median"]
+                                           / aa["threads2"]["step_wall_s_median"])
+        out[v] = aa
     dv = ends[1].vel6 - ends[2].vel6
     rad = model.body_radius[:, None]
     out["to_tolerance"]["max_velocity_difference_over_gh"] = float(np.abs(dv[:, :3]).max() / gh)
@@ -189,12 +197,14 @@ def main(argv=None):
               f"sweeps): x{tt['speedup']:.2f} | per sweep x{r['per_sweep']['speedup']:.2f} "
               f"({r['per_sweep']['ns_per_contact_threads1']:.1f} -> "
               f"{r['per_sweep']['ns_per_contact_threads2']:.1f} ns/contact)", flush=True)
-        aa = r["to_tolerance_anderson"]
-        print(f"      anderson={ANDERSON}: serial {aa['threads1']['step_wall_s_median']:.3f} s "
-              f"({aa['threads1']['iterations']} sweeps), 2 threads "
-              f"{aa['threads2']['step_wall_s_median']:.3f} s ({aa['threads2']['iterations']} "
-              f"sweeps): x{aa['speedup']:.2f}; x{aa['speedup_over_plain_serial']:.2f} over plain "
-              "serial", flush=True)
+        for v, o in VARIANTS.items():
+            aa = r[v]
+            name = ", ".join(f"{k}={x}" for k, x in o.items())
+            print(f"      {name}: serial {aa['threads1']['step_wall_s_median']:.3f} s "
+                  f"({aa['threads1']['iterations']} sweeps), 2 threads "
+                  f"{aa['threads2']['step_wall_s_median']:.3f} s ({aa['threads2']['iterations']} "
+                  f"sweeps): x{aa['speedup']:.2f}; x{aa['speedup_over_plain_serial']:.2f} over "
+                  "plain serial", flush=True)
         d = r["detection"]
         print(f"      detection: broadphase {d['broadphase']['threads1_ms']:.2f} -> "
               f"{d['broadphase']['threads2_ms']:.2f} ms (x{d['broadphase']['speedup']:.2f}), "

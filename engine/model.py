@@ -60,8 +60,9 @@ class Options(BaseModel):
         After each full sweep, re-sweep this many times the contacts whose impulse changed
         most in it (local-velocity change above ``HOT_FACTOR`` = 2 times the mean), in
         [0, 8] (0, the default: plain sweeps).  The stopping test stays on full sweeps
-        (:func:`engine.solver.nlgs.iterate_hot`).  Serial and unmixed only: refused with
-        ``anderson > 0`` or ``threads > 1``.
+        (:func:`engine.solver.nlgs.iterate_hot`; with ``threads > 1`` the re-sweeps run in
+        the parallel sweep's race-free group order, :func:`engine.solver.parallel.iterate_groups`).
+        Unmixed only: refused with ``anderson > 0``.
     threads : int
         NLGS threads, in [1, 64].  1 (the default): the serial Gauss–Seidel sweep.  T > 1:
         the domain-decomposed Gauss–Seidel of :mod:`engine.solver.parallel` (T domains swept
@@ -94,10 +95,9 @@ class Options(BaseModel):
 
     @model_validator(mode="after")
     def _hot_alone(self):
-        if self.hot_sweeps > 0 and (self.anderson > 0 or self.threads > 1):
-            raise ValueError(f"hot_sweeps={self.hot_sweeps} works with the serial unmixed "
-                             f"sweep only: set anderson=0 (got {self.anderson}) and threads=1 "
-                             f"(got {self.threads}), or hot_sweeps=0")
+        if self.hot_sweeps > 0 and self.anderson > 0:
+            raise ValueError(f"hot_sweeps={self.hot_sweeps} works with the unmixed sweep "
+                             f"only: set anderson=0 (got {self.anderson}), or hot_sweeps=0")
         return self
 
 

@@ -453,7 +453,7 @@ class Scene:
             (:attr:`engine.model.Options.anderson`).
         hot_sweeps : int in [0, 8]
             Re-sweeps of the contacts that changed most after each full sweep
-            (:attr:`engine.model.Options.hot_sweeps`; serial, unmixed).
+            (:attr:`engine.model.Options.hot_sweeps`; unmixed: anderson = 0).
 
         Raises
         ------

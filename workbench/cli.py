@@ -63,7 +63,7 @@ class SolverParams(_Strict):
                          description="NLGS threads (2 pays on tens of thousands of contacts)")
     hot_sweeps: int = Field(0, ge=0, le=8,
                             description="re-sweeps of the contacts that changed most after "
-                                        "each NLGS sweep (needs anderson = 0 and threads = 1)")
+                                        "each NLGS sweep (needs anderson = 0)")
     mu: float = Field(0.5, ge=0, le=10)
     mu_wire: float = Field(0.3, ge=0, le=10)
     max_nonconverged: float = Field(0.25, ge=0, le=1)
@@ -72,9 +72,9 @@ class SolverParams(_Strict):
 
     @model_validator(mode="after")
     def _hot_alone(self):
-        if self.hot_sweeps > 0 and (self.anderson > 0 or self.threads > 1):
+        if self.hot_sweeps > 0 and self.anderson > 0:
             raise ValueError(f"hot_sweeps = {self.hot_sweeps} needs anderson = 0 (got "
-                             f"{self.anderson}) and threads = 1 (got {self.threads})")
+                             f"{self.anderson})")
         return self
 
 

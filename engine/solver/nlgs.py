@@ -379,6 +379,32 @@ HOT_FACTOR = 2.0
 
 
 @njit(cache=True)
+def hot_list(n, q, factor, hot, bounds, hbounds):
+    """The hot contacts of the last full sweep: those whose ‖W Δp‖² ``q[a]`` exceeds
+    ``factor`` times the mean, written in increasing order to ``hot``; returns their count.
+    ``bounds`` (sorted contact indices) give ``hbounds[k]``, the number of hot contacts
+    below ``bounds[k]`` (where each group of the contact buffer starts in ``hot``)."""
+    thr = 0.0
+    for a in range(n):
+        thr += q[a]
+    thr *= factor / n
+    m = 0
+    k = 0
+    nb = bounds.shape[0]
+    for a in range(n):
+        while k < nb and bounds[k] <= a:
+            hbounds[k] = m
+            k += 1
+        if q[a] > thr:
+            hot[m] = a
+            m += 1
+    while k < nb:
+        hbounds[k] = m
+        k += 1
+    return m
+
+
+@njit(cache=True)
 def iterate_hot(n, n_pair, c_i, c_j, frame, w, gterm, mu, ri, rj, impulse, body_dyn, vel6, relax,
                 tol, max_iter, nl, link_i, link_j, l_normal, wl, l_unilateral, l_impulse,
                 l_order, hot_sweeps, factor, q, hot):
@@ -396,6 +422,8 @@ def iterate_hot(n, n_pair, c_i, c_j, frame, w, gterm, mu, ri, rj, impulse, body_
     """
     if n == 0 and nl == 0:
         return 0, 0.0
+    bounds = np.full(1, n_pair, np.int64)
+    hbounds = np.empty(1, np.int64)
     res = 0.0
     for it in range(max_iter):
         num = 0.0
@@ -418,18 +446,8 @@ def iterate_hot(n, n_pair, c_i, c_j, frame, w, gterm, mu, ri, rj, impulse, body_
             return it + 1, res
         if n == 0:
             continue
-        thr = 0.0
-        for a in range(n):
-            thr += q[a]
-        thr *= factor / n
-        m = 0
-        m_pair = 0  # hot sphere–sphere contacts come first (hot is in buffer order)
-        for a in range(n):
-            if q[a] > thr:
-                hot[m] = a
-                m += 1
-                if a < n_pair:
-                    m_pair = m
+        m = hot_list(n, q, factor, hot, bounds, hbounds)
+        m_pair = hbounds[0]  # hot sphere–sphere contacts come first (hot is in buffer order)
         for _ in range(hot_sweeps):
             for k in range(m_pair):
                 _contact(hot[k], c_i, c_j, frame, w, gterm, mu, ri, rj, impulse, body_dyn,
@@ -635,7 +653,7 @@ def _solve_on(model, state, ci, cj, body_dyn, vel6, pos, link_i, link_j, threads
                                 c.ri, c.rj, c.impulse, body_dyn, vel6, o.relax, o.tol,
                                 o.max_iter, nl, link_i, link_j, state.link_normal, wl,
                                 model.link_unilateral, state.link_impulse, model.link_order)
-    if o.hot_sweeps > 0:  # serial and unmixed (Options refuses the other combinations)
+    if o.hot_sweeps > 0 and threads == 1:  # unmixed (Options refuses anderson > 0)
         return iterate_hot(n, c.n_pair, ci, cj, c.frame, c.w, c.gterm, c.mu, c.ri, c.rj,
                            c.impulse, body_dyn, vel6, o.relax, o.tol, o.max_iter,
                            nl, link_i, link_j, state.link_normal, wl,
@@ -652,7 +670,7 @@ def _solve_on(model, state, ci, cj, body_dyn, vel6, pos, link_i, link_j, threads
                             c.impulse, body_dyn, vel6, o.relax, o.tol, o.max_iter,
                             nl, link_i, link_j, state.link_normal, wl,
                             model.link_unilateral, state.link_impulse, model.link_order,
-                            o.anderson, ws)
+                            o.anderson, ws, o.hot_sweeps)
 
 
 #: Columns of the per-link work array ``wl`` filled by :func:`link_prepare`.

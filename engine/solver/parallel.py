@@ -33,7 +33,7 @@ from numba import njit, prange
 from ..threads import numba_threads
 
 from ..model import DYN_INV_INERTIA, DYN_INV_MASS, DYN_LINE
-from .nlgs import _contact, links_then_residual
+from .nlgs import HOT_FACTOR, _contact, hot_list, links_then_residual
 
 
 @njit(cache=True)
@@ -132,63 +132,120 @@ def scatter(n, order, g_impulse, impulse):
             impulse[a, q] = g_impulse[m, q]
 
 
+#: Below this many grouped contacts in a pass, the groups run in turn on the calling
+#: thread (the same groups in the same order, so the same result): waking the other
+#: threads for each of the three phases costs more than it saves (measured on the
+#: wire-under-lid test scene, 374 contacts: 50-400 µs per pass with numba's TBB threading
+#: layer, about 10 µs in turn; docs/speed.md).  Read at each solve.
+PARALLEL_SWEEP_MIN_CONTACTS = 4096
+
+
 @njit(cache=True)
-def _group_sweep(lo, hi, c_i, c_j, frame, w, gterm, mu, ri, rj, impulse, body_dyn, vel6, relax):
+def _group(kind, g, start, hot, q, c_i, c_j, frame, w, gterm, mu, ri, rj, impulse, body_dyn,
+           vel6, relax):
+    """Sweep group ``g`` on one thread.  ``kind`` 0: its contacts ``start[g]..start[g+1]``,
+    each ‖W Δp‖² stored in ``q`` when ``q`` is not empty; returns the Quad sums.  ``kind`` 1:
+    the hot contacts ``hot[start[g]..start[g+1]]`` (``start`` is then the hot list's group
+    starts); returns zeros.  No LINE body is in a group (those contacts are shared); the
+    guard: a fixed wall shared by two domains is never written."""
     num = 0.0
     den = 0.0
-    for a in range(lo, hi):
-        # no LINE body in a group (those contacts are shared); guard: a fixed wall shared
-        # by two domains is never written
-        x, y = _contact(a, c_i, c_j, frame, w, gterm, mu, ri, rj, impulse, body_dyn, vel6,
-                        relax, False, True)
-        num += x
-        den += y
+    if kind == 0:
+        keep = q.shape[0] > 0
+        for a in range(start[g], start[g + 1]):
+            x, y = _contact(a, c_i, c_j, frame, w, gterm, mu, ri, rj, impulse, body_dyn, vel6,
+                            relax, False, True)
+            if keep:
+                q[a] = x
+            num += x
+            den += y
+    else:
+        for k in range(start[g], start[g + 1]):
+            _contact(hot[k], c_i, c_j, frame, w, gterm, mu, ri, rj, impulse, body_dyn, vel6,
+                     relax, False, True)
     return num, den
 
 
 @njit(cache=True, parallel=True)
-def _phase(first, count, stride, start, c_i, c_j, frame, w, gterm, mu, ri, rj, impulse,
-           body_dyn, vel6, relax, acc):
+def _phase(kind, first, count, stride, start, hot, q, c_i, c_j, frame, w, gterm, mu, ri, rj,
+           impulse, body_dyn, vel6, relax, acc):
     """Groups first, first + stride, ... (``count`` of them) at once, one per thread; each
     writes its Quad sums to its own row of ``acc``."""
     for k in prange(count):
         g = first + k * stride
-        x, y = _group_sweep(start[g], start[g + 1], c_i, c_j, frame, w, gterm, mu, ri, rj,
-                            impulse, body_dyn, vel6, relax)
+        x, y = _group(kind, g, start, hot, q, c_i, c_j, frame, w, gterm, mu, ri, rj, impulse,
+                      body_dyn, vel6, relax)
         acc[g, 0] = x
         acc[g, 1] = y
 
 
 @njit(cache=True)
-def sweep_groups(T, start, c_i, c_j, frame, w, gterm, mu, ri, rj, impulse, body_dyn, vel6, relax,
-                 nl, link_i, link_j, l_normal, wl, l_unilateral, l_impulse, l_order, acc):
-    """One sweep of the grouped contacts (interiors, even boundaries, odd boundaries,
-    shared) then the links; returns the Quad residual of the sweep."""
+def _in_turn(kind, first, count, stride, start, hot, q, c_i, c_j, frame, w, gterm, mu, ri, rj,
+             impulse, body_dyn, vel6, relax, acc):
+    """:func:`_phase` on the calling thread, group after group (the groups of one phase
+    share no body: the same result)."""
+    for k in range(count):
+        g = first + k * stride
+        x, y = _group(kind, g, start, hot, q, c_i, c_j, frame, w, gterm, mu, ri, rj, impulse,
+                      body_dyn, vel6, relax)
+        acc[g, 0] = x
+        acc[g, 1] = y
+
+
+@njit(cache=True)
+def _phases(kind, T, start, hot, q, c_i, c_j, frame, w, gterm, mu, ri, rj, impulse, body_dyn,
+            vel6, relax, acc, min_par):
+    """One pass over the groups in their race-free order: the ``T`` interiors at once, the
+    even boundaries at once, the odd ones, then the shared contacts on one thread (full
+    kernel: LINE walls).  A pass of fewer than ``min_par`` grouped contacts
+    (:data:`PARALLEL_SWEEP_MIN_CONTACTS`) runs its phases on this thread.  ``kind``,
+    ``start``, ``hot``, ``q``: see :func:`_group`.
+    Returns the Quad sums (num, den) of a full pass, summed in a fixed order."""
     ng = 2 * T
-    nbd = T - 1
-    _phase(0, T, 1, start, c_i, c_j, frame, w, gterm, mu, ri, rj, impulse, body_dyn, vel6,
-           relax, acc)
-    for parity in range(2):
-        cnt = (nbd - parity + 1) // 2
-        if cnt == 1:
-            g = T + parity
-            x, y = _group_sweep(start[g], start[g + 1], c_i, c_j, frame, w, gterm, mu, ri, rj,
-                                impulse, body_dyn, vel6, relax)
-            acc[g, 0] = x
-            acc[g, 1] = y
-        elif cnt > 1:
-            _phase(T + parity, cnt, 2, start, c_i, c_j, frame, w, gterm, mu, ri, rj, impulse,
-                   body_dyn, vel6, relax, acc)
+    in_turn = start[ng - 1] - start[0] < min_par
+    # (first group, count, stride): interiors, even boundaries, odd boundaries
+    for first, count, stride in ((0, T, 1), (T, T // 2, 2), (T + 1, (T - 1) // 2, 2)):
+        if in_turn or count == 1:
+            _in_turn(kind, first, count, stride, start, hot, q, c_i, c_j, frame, w, gterm, mu,
+                     ri, rj, impulse, body_dyn, vel6, relax, acc)
+        elif count > 1:
+            _phase(kind, first, count, stride, start, hot, q, c_i, c_j, frame, w, gterm, mu,
+                   ri, rj, impulse, body_dyn, vel6, relax, acc)
+    return _shared_and_sum(kind, ng, start, hot, q, c_i, c_j, frame, w, gterm, mu, ri, rj,
+                           impulse, body_dyn, vel6, relax, acc)
+
+
+@njit(cache=True)
+def _shared_and_sum(kind, ng, start, hot, q, c_i, c_j, frame, w, gterm, mu, ri, rj, impulse,
+                    body_dyn, vel6, relax, acc):
+    """The shared group on this thread (full kernel: LINE walls), then the Quad sums of the
+    pass: the shared ones, then each group's row of ``acc`` in order."""
     num = 0.0
     den = 0.0
-    for a in range(start[ng - 1], start[ng]):  # shared: full serial kernel (LINE walls)
+    keep = q.shape[0] > 0
+    for k in range(start[ng - 1], start[ng]):
+        a = k if kind == 0 else hot[k]
         x, y = _contact(a, c_i, c_j, frame, w, gterm, mu, ri, rj, impulse, body_dyn, vel6,
                         relax, True)
+        if kind == 0 and keep:
+            q[a] = x
         num += x
         den += y
     for g in range(ng - 1):
         num += acc[g, 0]
         den += acc[g, 1]
+    return num, den
+
+
+@njit(cache=True)
+def sweep_groups(T, start, c_i, c_j, frame, w, gterm, mu, ri, rj, impulse, body_dyn, vel6, relax,
+                 nl, link_i, link_j, l_normal, wl, l_unilateral, l_impulse, l_order, acc, q,
+                 min_par):
+    """One sweep of the grouped contacts (interiors, even boundaries, odd boundaries,
+    shared) then the links; returns the Quad residual of the sweep.  Each contact's
+    ‖W Δp‖² goes to ``q`` unless ``q`` is empty."""
+    num, den = _phases(0, T, start, c_i[:0], q, c_i, c_j, frame, w, gterm,
+                       mu, ri, rj, impulse, body_dyn, vel6, relax, acc, min_par)
     return links_then_residual(num, den, nl, link_i, link_j, l_normal, wl, l_unilateral,
                                l_impulse, body_dyn, vel6, relax, l_order)
 
@@ -196,31 +253,44 @@ def sweep_groups(T, start, c_i, c_j, frame, w, gterm, mu, ri, rj, impulse, body_
 @njit(cache=True)
 def iterate_groups(T, n, start, c_i, c_j, frame, w, gterm, mu, ri, rj, impulse, body_dyn,
                    vel6, relax, tol, max_iter, nl, link_i, link_j, l_normal, wl,
-                   l_unilateral, l_impulse, l_order, acc):
+                   l_unilateral, l_impulse, l_order, acc, hot_sweeps, factor, q, hot, hstart,
+                   min_par):
     """Sweeps (:func:`sweep_groups`) until the Quad residual is below ``tol``; returns
-    (iterations, residual)."""
+    (iterations, residual).  With ``hot_sweeps`` > 0, after each full sweep that has not
+    converged the hot contacts (:func:`engine.solver.nlgs.hot_list`, ``factor``) are swept
+    ``hot_sweeps`` more times in the same race-free group order, as
+    :func:`engine.solver.nlgs.iterate_hot` does on one thread.  ``q`` (n,), ``hot`` (n,)
+    int32 and ``hstart`` (2T + 1,) int64 are work arrays (``q`` may be empty when
+    ``hot_sweeps`` is 0); ``min_par``: see :func:`_phases`."""
     if n == 0 and nl == 0:
         return 0, 0.0
     res = 0.0
     for it in range(max_iter):
         res = sweep_groups(T, start, c_i, c_j, frame, w, gterm, mu, ri, rj, impulse, body_dyn,
                            vel6, relax, nl, link_i, link_j, l_normal, wl, l_unilateral,
-                           l_impulse, l_order, acc)
+                           l_impulse, l_order, acc, q, min_par)
         if res < tol:
             return it + 1, res
+        if hot_sweeps == 0 or n == 0:
+            continue
+        hot_list(n, q, factor, hot, start, hstart)
+        for _ in range(hot_sweeps):
+            _phases(1, T, hstart, hot, q, c_i, c_j, frame, w, gterm, mu, ri, rj, impulse,
+                    body_dyn, vel6, relax, acc, min_par)
     return max_iter, res
 
 
 def iterate_parallel(T, n, c_i, c_j, frame, w, gterm, mu, ri, rj, impulse, body_dyn, vel6,
                      relax, tol, max_iter, nl, link_i, link_j, l_normal, wl, l_unilateral,
-                     l_impulse, l_order, anderson=0, workspace=None):
+                     l_impulse, l_order, anderson=0, workspace=None, hot_sweeps=0):
     """:func:`engine.solver.nlgs.iterate` on ``T`` domains (module docstring).
 
     ``c_i, c_j, body_dyn, vel6`` are in the local numbering of
     :func:`engine.solver.nlgs.layout`.  Runs on min(T, numba's thread count) threads; the
     result depends on ``T`` only.  With ``anderson = m > 0`` the sweeps are mixed as in
     :mod:`engine.solver.anderson` (its passes on the same threads), with the
-    history buffers of ``workspace``.
+    history buffers of ``workspace``.  With ``hot_sweeps`` > 0 (and ``anderson`` = 0) the
+    hot contacts are re-swept after each full sweep (:func:`iterate_groups`).
     """
     T = int(T)
     nloc = body_dyn.shape[0]
@@ -247,12 +317,16 @@ def iterate_parallel(T, n, c_i, c_j, frame, w, gterm, mu, ri, rj, impulse, body_
             it, res = run_anderson(workspace, anderson, n, n, g_i, g_j, g_frame, g_w, g_gterm,
                                    g_mu, g_ri, g_rj, g_imp, body_dyn, vel6, relax, tol, max_iter,
                                    nl, link_i, link_j, l_normal, wl, l_unilateral, l_impulse,
-                                   l_order, T, start, acc)
+                                   l_order, T, start, acc, PARALLEL_SWEEP_MIN_CONTACTS)
         else:
+            hot_sweeps = int(hot_sweeps)
+            m = n if hot_sweeps > 0 else 0
             it, res = iterate_groups(T, n, start, g_i, g_j, g_frame, g_w, g_gterm, g_mu, g_ri,
                                      g_rj, g_imp, body_dyn, vel6, relax, tol, max_iter, nl,
                                      link_i, link_j, l_normal, wl, l_unilateral, l_impulse,
-                                     l_order, acc)
+                                     l_order, acc, hot_sweeps, HOT_FACTOR, np.empty(m),
+                                     np.empty(m, np.int32), np.empty(2 * T + 1, np.int64),
+                                     PARALLEL_SWEEP_MIN_CONTACTS)
     scatter(n, order, g_imp, impulse)
     return it, res
 

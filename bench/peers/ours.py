@@ -34,10 +34,11 @@ import common  # noqa: E402
 P = common.PARAMS
 
 
-def build(state_file: str, dt: float | None = None, anderson: int | None = None):
+def build(state_file: str, dt: float | None = None, anderson: int | None = None,
+          hot_sweeps: int = 0):
     """Our Scene from a state file: spheres with their velocities and spins, open box.
     ``dt`` and ``anderson`` override the common parameters' time step and the engine's
-    default acceleration depth."""
+    default acceleration depth; ``hot_sweeps``: :attr:`engine.model.Options.hot_sweeps`."""
     st = common.load_state(state_file)
     s = Scene(gravity=(0.0, 0.0, -P["gravity"]))
     s.add_spheres(st["position"], st["radius"], density=P["density"], group="sand",
@@ -47,6 +48,8 @@ def build(state_file: str, dt: float | None = None, anderson: int | None = None)
     s.interact("sand", "wall", laws.Coulomb(mu=P["mu"]))
     t0 = time.perf_counter()
     extra = {} if anderson is None else dict(anderson=anderson)
+    if hot_sweeps:
+        extra["hot_sweeps"] = hot_sweeps
     model, state = s.compile(dt=P["dt"] if dt is None else dt, theta=P["theta"], tol=P["tol"],
                              max_iter=P["max_iter"], **extra)
     return st, model, state, time.perf_counter() - t0
@@ -147,7 +150,7 @@ def cmd_steps(a):
 
 def cmd_rest(a):
     warm_s = warm()
-    st, model, state, compile_s = build(a.state, a.dt, a.anderson)
+    st, model, state, compile_s = build(a.state, a.dt, a.anderson, a.hot_sweeps)
     sph = model.sphere_ids
     rad = model.body_radius[sph]
     m, inertia = common.masses(rad, P["density"])
@@ -177,6 +180,7 @@ def cmd_rest(a):
     _finish(a, st, model, state, rec, dict(
         mode="rest", state=Path(a.state).name, rest_ratio=a.rest_ratio, at_rest=at_rest,
         dt_s=model.options.dt, tol=model.options.tol, anderson=model.options.anderson,
+        hot_sweeps=model.options.hot_sweeps,
         steps_done=n, simulated_time_s=float(state.time), wall_s=wall, cap_s=a.cap_s,
         cap_hit=not at_rest, kinetic_energy_peak_J=peak,
         kinetic_energy_peak_step=int(np.argmax(rec["kinetic_energy_J"])) + 1,
@@ -209,6 +213,8 @@ def main():
     p.add_argument("--dt", type=float, default=None, help="time step [s] (default: the common one)")
     p.add_argument("--anderson", type=int, default=None,
                    help="NLGS Anderson depth (default: the engine's default)")
+    p.add_argument("--hot-sweeps", type=int, default=0,
+                   help="re-sweeps of the hot contacts (needs --anderson 0)")
     a = ap.parse_args()
     numba.set_num_threads(1)
     {"init": cmd_init, "steps": cmd_steps, "rest": cmd_rest}[a.cmd](a)

@@ -261,6 +261,7 @@ def main():
         yade_wall_to_rest_ratio_large_dt=yd.get("ratio_wall_to_rest_large_dt"),
         ours_large_dt_s=(o_rest_big or {}).get("dt_s"),
         ours_rest_anderson=(o_rest or {}).get("anderson"),
+        ours_rest_hot_sweeps=(o_rest or {}).get("hot_sweeps", 0),
         yade_ratio_is_lower_bound=yd.get("ratio_is_lower_bound"),
         target=TARGET)
     headline["meets_target"] = {k: (v >= TARGET) for k, v in headline.items()

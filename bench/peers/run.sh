@@ -12,7 +12,10 @@
 #   PEERS_YADE_CAP_S=600, PEERS_OURS_REST_CAP_S=600   caps of the runs to rest
 #   PEERS_REST_DT_LARGE=5e-4 our second run to rest, at this larger time step (NSCD's
 #                            regime; the first uses the common 5e-5 s); empty: skipped
-#   PEERS_REST_ANDERSON=4    NLGS Anderson depth of our runs to rest (0: plain Gauss-Seidel)
+#   PEERS_REST_ANDERSON=0, PEERS_REST_HOT=2   NLGS of our runs to rest: Anderson depth and
+#                            re-sweeps of the hot contacts (docs/speed.md: the fastest
+#                            measured for this deposit; 4 and 0 were the default until
+#                            2026-11-24 evening)
 #   PEERS_SKIP="yade shipped"   parts to leave out (siconos, shipped, dense, yade)
 #   PEERS_NOTE="..."         a note written into the JSON (e.g. "machine shared")
 #   PEERS_KEEP=1             keep the work directory (logs, HDF5, per-run JSON)
@@ -136,13 +139,14 @@ fi
 
 # ---- Yade: the same deposit to rest ---------------------------------------------------------
 if ! skip yade; then
-  AND=${PEERS_REST_ANDERSON:-4}
+  AND=${PEERS_REST_ANDERSON:-0}; HOT=${PEERS_REST_HOT:-2}
   run ours_rest "$VPY" $HERE/ours.py rest --state "$WORK/init_state.json" --cap-s "$REST_CAP" \
-      --anderson "$AND" --out "$WORK/ours_rest.json"
+      --anderson "$AND" --hot-sweeps "$HOT" --out "$WORK/ours_rest.json"
   DT_LARGE=${PEERS_REST_DT_LARGE-5e-4}
   if [[ -n "$DT_LARGE" ]]; then
     run ours_rest_dt_large "$VPY" $HERE/ours.py rest --state "$WORK/init_state.json" \
-        --cap-s "$REST_CAP" --dt "$DT_LARGE" --anderson "$AND" --out "$WORK/ours_rest_dt_large.json"
+        --cap-s "$REST_CAP" --dt "$DT_LARGE" --anderson "$AND" --hot-sweeps "$HOT" \
+        --out "$WORK/ours_rest_dt_large.json"
   fi
   run yade_rest env PEERS_STATE="$WORK/init_state.json" PEERS_OUT="$WORK/yade_rest.json" \
       PEERS_CAP_S="$YADE_CAP" yade -n -j1 -x $HERE/yade_deposit.py

@@ -238,17 +238,34 @@ def _mix_range(a0, a1, k, gamma, dg, w, mu, frame, c_i, c_j, ri, rj, impulse, bo
         x[a, 2] = ps
 
 
+@njit(cache=True)
+def _history_chunk(c, T, n, col, k, have_prev, w, impulse, x, f, g, df, dg, pg, pr):
+    """The history pass (or the first one, ``have_prev`` False) on chunk ``c`` of ``T``
+    contiguous chunks of the contacts; partial sums in row ``c`` of ``pg``, ``pr``."""
+    a0 = (n * c) // T
+    a1 = (n * (c + 1)) // T
+    if have_prev:
+        _history_range(a0, a1, c, col, k, w, impulse, x, f, g, df, dg, pg, pr)
+    else:
+        _start_range(a0, a1, w, impulse, x, f, g)
+
+
 @njit(cache=True, parallel=True)
 def _history_chunks(T, n, col, k, have_prev, w, impulse, x, f, g, df, dg, pg, pr):
-    """The history pass (or the first one, ``have_prev`` False) on ``T`` contiguous chunks
-    of the contacts at once; partial sums in rows 0..T-1 of ``pg``, ``pr``."""
+    """:func:`_history_chunk` on the ``T`` chunks at once."""
     for c in prange(T):
-        a0 = (n * c) // T
-        a1 = (n * (c + 1)) // T
-        if have_prev:
-            _history_range(a0, a1, c, col, k, w, impulse, x, f, g, df, dg, pg, pr)
-        else:
-            _start_range(a0, a1, w, impulse, x, f, g)
+        _history_chunk(c, T, n, col, k, have_prev, w, impulse, x, f, g, df, dg, pg, pr)
+
+
+@njit(cache=True)
+def _history(par, T, n, col, k, have_prev, w, impulse, x, f, g, df, dg, pg, pr):
+    """:func:`_history_chunk` on the ``T`` chunks, at once when ``par``, else in turn (the
+    same sums: each chunk has its own row)."""
+    if par:
+        _history_chunks(T, n, col, k, have_prev, w, impulse, x, f, g, df, dg, pg, pr)
+    else:
+        for c in range(T):
+            _history_chunk(c, T, n, col, k, have_prev, w, impulse, x, f, g, df, dg, pg, pr)
 
 
 @njit(cache=True, parallel=True)
@@ -268,18 +285,21 @@ def _mix_phase(first, count, stride, start, k, gamma, dg, w, mu, frame, c_i, c_j
 
 
 @njit(cache=True)
-def _mix_groups(T, start, k, gamma, dg, w, mu, frame, c_i, c_j, ri, rj, impulse, body_dyn,
-                vel6, x):
+def _mix_groups(par, T, start, k, gamma, dg, w, mu, frame, c_i, c_j, ri, rj, impulse,
+                body_dyn, vel6, x):
     """The mixing update on the contact groups of :func:`engine.solver.parallel.partition`,
-    in the phases of its sweep (no two threads write the same body)."""
+    in the phases of its sweep (no two threads write the same body); each phase on the
+    threads when ``par``, else its groups in turn (the same result)."""
     ng = 2 * T
-    _mix_phase(0, T, 1, start, k, gamma, dg, w, mu, frame, c_i, c_j, ri, rj, impulse,
-               body_dyn, vel6, x)
-    for parity in range(2):
-        cnt = (T - 1 - parity + 1) // 2
-        if cnt > 0:
-            _mix_phase(T + parity, cnt, 2, start, k, gamma, dg, w, mu, frame, c_i, c_j, ri, rj,
-                       impulse, body_dyn, vel6, x)
+    for first, count, stride in ((0, T, 1), (T, T // 2, 2), (T + 1, (T - 1) // 2, 2)):
+        if par and count > 1:
+            _mix_phase(first, count, stride, start, k, gamma, dg, w, mu, frame, c_i, c_j, ri,
+                       rj, impulse, body_dyn, vel6, x)
+        else:
+            for q in range(count):
+                gi = first + q * stride
+                _mix_range(start[gi], start[gi + 1], k, gamma, dg, w, mu, frame, c_i, c_j, ri,
+                           rj, impulse, body_dyn, vel6, x, True)
     _mix_range(start[ng - 1], start[ng], k, gamma, dg, w, mu, frame, c_i, c_j, ri, rj,
                impulse, body_dyn, vel6, x, False)
 
@@ -302,6 +322,8 @@ def iterate_anderson(n, n_pair, c_i, c_j, frame, w, gterm, mu, ri, rj, impulse, 
             x[a, d] = impulse[a, d]
     for l in range(nl):
         xl[l] = l_impulse[l]
+    # the passes on threads only where a pass of the sweep is (PARALLEL_SWEEP_MIN_CONTACTS)
+    par = T > 1 and start[2 * T - 1] - start[0] >= min_par
     pg = np.zeros((T, m))  # per-chunk partial Gram rows and right-hand sides
     pr = np.zeros((T, m))
     k = 0          # history columns filled
@@ -346,7 +368,7 @@ def iterate_anderson(n, n_pair, c_i, c_j, frame, w, gterm, mu, ri, rj, impulse, 
                 k += 1
             head = (head + 1) % m
             if T > 1:
-                _history_chunks(T, n, col, k, True, w, impulse, x, f, g, df, dg, pg, pr)
+                _history(par, T, n, col, k, True, w, impulse, x, f, g, df, dg, pg, pr)
             else:
                 _history_range(0, n, 0, col, k, w, impulse, x, f, g, df, dg, pg, pr)
             for b in range(k):
@@ -369,7 +391,7 @@ def iterate_anderson(n, n_pair, c_i, c_j, frame, w, gterm, mu, ri, rj, impulse, 
                 gram[b, col] = gram[col, b]
         else:
             if T > 1:
-                _history_chunks(T, n, 0, 0, False, w, impulse, x, f, g, df, dg, pg, pr)
+                _history(par, T, n, 0, 0, False, w, impulse, x, f, g, df, dg, pg, pr)
             else:
                 _start_range(0, n, w, impulse, x, f, g)
             for l in range(nl):
@@ -379,7 +401,7 @@ def iterate_anderson(n, n_pair, c_i, c_j, frame, w, gterm, mu, ri, rj, impulse, 
         mixed = k > 0 and _solve_small(k, gram, rhs, mat, gamma)
         if not mixed:
             # x <- G(x): nothing to change
-            if T > 1:
+            if par:
                 _copy_chunks(T, n, impulse, x)
             else:
                 _copy_range(0, n, impulse, x)
@@ -388,7 +410,7 @@ def iterate_anderson(n, n_pair, c_i, c_j, frame, w, gterm, mu, ri, rj, impulse, 
             continue
         # x <- Π(G(x) - ΔG γ), velocities moved by the change
         if T > 1:
-            _mix_groups(T, start, k, gamma, dg, w, mu, frame, c_i, c_j, ri, rj, impulse,
+            _mix_groups(par, T, start, k, gamma, dg, w, mu, frame, c_i, c_j, ri, rj, impulse,
                         body_dyn, vel6, x)
         else:
             _mix_range(0, n, k, gamma, dg, w, mu, frame, c_i, c_j, ri, rj, impulse, body_dyn,

@@ -308,12 +308,13 @@ def _mix_groups(par, T, start, k, gamma, dg, w, mu, frame, c_i, c_j, ri, rj, imp
 def iterate_anderson(n, n_pair, c_i, c_j, frame, w, gterm, mu, ri, rj, impulse, body_dyn, vel6,
                      relax, tol, max_iter, nl, link_i, link_j, l_normal, wl, l_unilateral,
                      l_impulse, l_order, m, period, dg, df, dgl, dfl, x, g, f, xl, gl, fl, gram, rhs,
-                     mat, gamma, T, start, acc, min_par):
+                     mat, gamma, T, start, acc, min_par, mid):
     """:func:`engine.solver.nlgs.iterate` with Anderson mixing of depth ``m`` between
     sweeps (module docstring).  ``T`` = 1: serial sweeps (:func:`engine.solver.nlgs.sweep_all`);
     ``T`` > 1: the domain-decomposed sweeps of :func:`engine.solver.parallel.sweep_groups`
     on contacts gathered by group (``start``, ``acc``: its group starts and Quad sums;
-    ``min_par``: its :data:`engine.solver.parallel.PARALLEL_SWEEP_MIN_CONTACTS`).
+    ``min_par``: its :data:`engine.solver.parallel.PARALLEL_SWEEP_MIN_CONTACTS`; ``mid``:
+    where each group's contacts touching an immobile body start).
     Returns ``(iterations, residual)``."""
     if n == 0 and nl == 0:
         return 0, 0.0
@@ -336,8 +337,8 @@ def iterate_anderson(n, n_pair, c_i, c_j, frame, w, gterm, mu, ri, rj, impulse, 
     res = 0.0
     for it in range(max_iter):
         if T > 1:
-            res = sweep_groups(T, start, c_i, c_j, frame, w, gterm, mu, ri, rj, impulse, body_dyn,
-                               vel6, relax, nl, link_i, link_j, l_normal, wl, l_unilateral,
+            res = sweep_groups(T, start, mid, c_i, c_j, frame, w, gterm, mu, ri, rj, impulse,
+                               body_dyn, vel6, relax, nl, link_i, link_j, l_normal, wl, l_unilateral,
                                l_impulse, l_order, acc, rhs[:0], min_par)
         else:
             res = sweep_all(n, n_pair, c_i, c_j, frame, w, gterm, mu, ri, rj, impulse, body_dyn,
@@ -436,19 +437,21 @@ _NO_GROUPS = np.zeros(1, np.int64)
 
 def run_anderson(ws: Workspace, m, n, n_pair, ci, cj, frame, w, gterm, mu, ri, rj, impulse,
                  body_dyn, vel6, relax, tol, max_iter, nl, link_i, link_j, l_normal, wl,
-                 l_unilateral, l_impulse, l_order, T=1, start=None, acc=None, min_par=0):
+                 l_unilateral, l_impulse, l_order, T=1, start=None, acc=None, min_par=0,
+                 mid=None):
     """Call :func:`iterate_anderson` with the buffers of ``ws`` (grown as needed); ``T``,
-    ``start``, ``acc``, ``min_par``: the grouped parallel sweep
+    ``start``, ``acc``, ``min_par``, ``mid``: the grouped parallel sweep
     (:func:`engine.solver.parallel.iterate_parallel`)."""
     ws.ensure(m, n, nl)
     if T == 1:
         start = _NO_GROUPS
+        mid = _NO_GROUPS
         acc = ws.acc
     return iterate_anderson(n, n_pair, ci, cj, frame, w, gterm, mu, ri, rj, impulse, body_dyn,
                             vel6, relax, tol, max_iter, nl, link_i, link_j, l_normal, wl,
                             l_unilateral, l_impulse, l_order, m, PERIOD, ws.dg, ws.df, ws.dgl,
                             ws.dfl, ws.x, ws.g, ws.f, ws.xl, ws.gl, ws.fl, ws.gram, ws.rhs, ws.mat,
-                            ws.gamma, T, start, acc, min_par)
+                            ws.gamma, T, start, acc, min_par, mid)
 
 
 __all__ = ["iterate_anderson", "run_anderson", "Workspace", "PERIOD", "RESTART_GROWTH",

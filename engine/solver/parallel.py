@@ -37,8 +37,9 @@ from .nlgs import HOT_FACTOR, _contact, hot_list, links_then_residual
 
 
 @njit(cache=True)
-def partition(n, T, c_i, c_j, body_dyn, nloc, group, start, order):
-    """Group the ``n`` contacts (see the module docstring) and sort them by group.
+def partition(n, T, c_i, c_j, body_dyn, nloc, group, start, order, mid):
+    """Group the ``n`` contacts (see the module docstring) and sort them by group; inside a
+    group, the contacts between two mobile bodies come first (``mid``).
 
     Parameters
     ----------
@@ -47,7 +48,11 @@ def partition(n, T, c_i, c_j, body_dyn, nloc, group, start, order):
     body_dyn : (nloc, 8) local body rows.
     group : (n,) int32 ; start : (2T + 1,) int64 ; order : (n,) int32 -- outputs: the group
         of each contact (s interior, T + s boundary, 2T - 1 shared), CSR starts of the
-        groups and the contacts sorted by group (stable: serial order inside a group).
+        groups and the contacts sorted by group (stable: serial order inside a group,
+        except that the contacts touching an immobile body go last).
+    mid : (2T,) int64 -- output: group g's contacts start[g]..mid[g] are between two
+        mobile bodies (swept without the guard of :func:`engine.solver.nlgs._apply`), the
+        others touch an immobile body (a fixed wall or sphere that several groups touch).
     """
     ng = 2 * T
     # domain of each local body: cut where the sphere–sphere part of the stream reaches s/T
@@ -77,6 +82,7 @@ def partition(n, T, c_i, c_j, body_dyn, nloc, group, start, order):
             dom[b] = d
     for g in range(ng + 1):
         start[g] = 0
+    n_mm = np.zeros(ng, np.int64)  # contacts between two mobile bodies, per group
     for a in range(n):
         di = dom[c_i[a]]
         dj = dom[c_j[a]]
@@ -94,13 +100,21 @@ def partition(n, T, c_i, c_j, body_dyn, nloc, group, start, order):
             g = ng - 1
         group[a] = g
         start[g + 1] += 1
+        if di >= 0 and dj >= 0:
+            n_mm[g] += 1
     for g in range(ng):
         start[g + 1] += start[g]
+        mid[g] = start[g] + n_mm[g]
     fill = start[:ng].copy()
+    fill_im = mid.copy()
     for a in range(n):
         g = group[a]
-        order[fill[g]] = a
-        fill[g] += 1
+        if dom[c_i[a]] >= 0 and dom[c_j[a]] >= 0:
+            order[fill[g]] = a
+            fill[g] += 1
+        else:
+            order[fill_im[g]] = a
+            fill_im[g] += 1
 
 
 @njit(cache=True)
@@ -141,18 +155,27 @@ PARALLEL_SWEEP_MIN_CONTACTS = 4096
 
 
 @njit(cache=True)
-def _group(kind, g, start, hot, q, c_i, c_j, frame, w, gterm, mu, ri, rj, impulse, body_dyn,
-           vel6, relax):
+def _group(kind, g, start, mid, hot, q, c_i, c_j, frame, w, gterm, mu, ri, rj, impulse,
+           body_dyn, vel6, relax):
     """Sweep group ``g`` on one thread.  ``kind`` 0: its contacts ``start[g]..start[g+1]``,
     each ‖W Δp‖² stored in ``q`` when ``q`` is not empty; returns the Quad sums.  ``kind`` 1:
     the hot contacts ``hot[start[g]..start[g+1]]`` (``start`` is then the hot list's group
-    starts); returns zeros.  No LINE body is in a group (those contacts are shared); the
-    guard: a fixed wall shared by two domains is never written."""
+    starts); returns zeros.  No LINE body is in a group (those contacts are shared).  The
+    contacts from ``mid[g]`` on touch an immobile body (:func:`partition`) and run with the
+    guard: a fixed wall or sphere that two domains touch is never written."""
     num = 0.0
     den = 0.0
+    m = mid[g]
     if kind == 0:
         keep = q.shape[0] > 0
-        for a in range(start[g], start[g + 1]):
+        for a in range(start[g], m):
+            x, y = _contact(a, c_i, c_j, frame, w, gterm, mu, ri, rj, impulse, body_dyn, vel6,
+                            relax, False, False)
+            if keep:
+                q[a] = x
+            num += x
+            den += y
+        for a in range(m, start[g + 1]):
             x, y = _contact(a, c_i, c_j, frame, w, gterm, mu, ri, rj, impulse, body_dyn, vel6,
                             relax, False, True)
             if keep:
@@ -161,39 +184,44 @@ def _group(kind, g, start, hot, q, c_i, c_j, frame, w, gterm, mu, ri, rj, impuls
             den += y
     else:
         for k in range(start[g], start[g + 1]):
-            _contact(hot[k], c_i, c_j, frame, w, gterm, mu, ri, rj, impulse, body_dyn, vel6,
-                     relax, False, True)
+            a = hot[k]
+            if a < m:
+                _contact(a, c_i, c_j, frame, w, gterm, mu, ri, rj, impulse, body_dyn, vel6,
+                         relax, False, False)
+            else:
+                _contact(a, c_i, c_j, frame, w, gterm, mu, ri, rj, impulse, body_dyn, vel6,
+                         relax, False, True)
     return num, den
 
 
 @njit(cache=True, parallel=True)
-def _phase(kind, first, count, stride, start, hot, q, c_i, c_j, frame, w, gterm, mu, ri, rj,
+def _phase(kind, first, count, stride, start, mid, hot, q, c_i, c_j, frame, w, gterm, mu, ri, rj,
            impulse, body_dyn, vel6, relax, acc):
     """Groups first, first + stride, ... (``count`` of them) at once, one per thread; each
     writes its Quad sums to its own row of ``acc``."""
     for k in prange(count):
         g = first + k * stride
-        x, y = _group(kind, g, start, hot, q, c_i, c_j, frame, w, gterm, mu, ri, rj, impulse,
+        x, y = _group(kind, g, start, mid, hot, q, c_i, c_j, frame, w, gterm, mu, ri, rj, impulse,
                       body_dyn, vel6, relax)
         acc[g, 0] = x
         acc[g, 1] = y
 
 
 @njit(cache=True)
-def _in_turn(kind, first, count, stride, start, hot, q, c_i, c_j, frame, w, gterm, mu, ri, rj,
+def _in_turn(kind, first, count, stride, start, mid, hot, q, c_i, c_j, frame, w, gterm, mu, ri, rj,
              impulse, body_dyn, vel6, relax, acc):
     """:func:`_phase` on the calling thread, group after group (the groups of one phase
     share no body: the same result)."""
     for k in range(count):
         g = first + k * stride
-        x, y = _group(kind, g, start, hot, q, c_i, c_j, frame, w, gterm, mu, ri, rj, impulse,
+        x, y = _group(kind, g, start, mid, hot, q, c_i, c_j, frame, w, gterm, mu, ri, rj, impulse,
                       body_dyn, vel6, relax)
         acc[g, 0] = x
         acc[g, 1] = y
 
 
 @njit(cache=True)
-def _phases(kind, T, start, hot, q, c_i, c_j, frame, w, gterm, mu, ri, rj, impulse, body_dyn,
+def _phases(kind, T, start, mid, hot, q, c_i, c_j, frame, w, gterm, mu, ri, rj, impulse, body_dyn,
             vel6, relax, acc, min_par):
     """One pass over the groups in their race-free order: the ``T`` interiors at once, the
     even boundaries at once, the odd ones, then the shared contacts on one thread (full
@@ -206,10 +234,10 @@ def _phases(kind, T, start, hot, q, c_i, c_j, frame, w, gterm, mu, ri, rj, impul
     # (first group, count, stride): interiors, even boundaries, odd boundaries
     for first, count, stride in ((0, T, 1), (T, T // 2, 2), (T + 1, (T - 1) // 2, 2)):
         if in_turn or count == 1:
-            _in_turn(kind, first, count, stride, start, hot, q, c_i, c_j, frame, w, gterm, mu,
+            _in_turn(kind, first, count, stride, start, mid, hot, q, c_i, c_j, frame, w, gterm, mu,
                      ri, rj, impulse, body_dyn, vel6, relax, acc)
         elif count > 1:
-            _phase(kind, first, count, stride, start, hot, q, c_i, c_j, frame, w, gterm, mu,
+            _phase(kind, first, count, stride, start, mid, hot, q, c_i, c_j, frame, w, gterm, mu,
                    ri, rj, impulse, body_dyn, vel6, relax, acc)
     return _shared_and_sum(kind, ng, start, hot, q, c_i, c_j, frame, w, gterm, mu, ri, rj,
                            impulse, body_dyn, vel6, relax, acc)
@@ -238,20 +266,20 @@ def _shared_and_sum(kind, ng, start, hot, q, c_i, c_j, frame, w, gterm, mu, ri, 
 
 
 @njit(cache=True)
-def sweep_groups(T, start, c_i, c_j, frame, w, gterm, mu, ri, rj, impulse, body_dyn, vel6, relax,
-                 nl, link_i, link_j, l_normal, wl, l_unilateral, l_impulse, l_order, acc, q,
+def sweep_groups(T, start, mid, c_i, c_j, frame, w, gterm, mu, ri, rj, impulse, body_dyn, vel6,
+                 relax, nl, link_i, link_j, l_normal, wl, l_unilateral, l_impulse, l_order, acc, q,
                  min_par):
     """One sweep of the grouped contacts (interiors, even boundaries, odd boundaries,
     shared) then the links; returns the Quad residual of the sweep.  Each contact's
     ‖W Δp‖² goes to ``q`` unless ``q`` is empty."""
-    num, den = _phases(0, T, start, c_i[:0], q, c_i, c_j, frame, w, gterm,
+    num, den = _phases(0, T, start, mid, c_i[:0], q, c_i, c_j, frame, w, gterm,
                        mu, ri, rj, impulse, body_dyn, vel6, relax, acc, min_par)
     return links_then_residual(num, den, nl, link_i, link_j, l_normal, wl, l_unilateral,
                                l_impulse, body_dyn, vel6, relax, l_order)
 
 
 @njit(cache=True)
-def iterate_groups(T, n, start, c_i, c_j, frame, w, gterm, mu, ri, rj, impulse, body_dyn,
+def iterate_groups(T, n, start, mid, c_i, c_j, frame, w, gterm, mu, ri, rj, impulse, body_dyn,
                    vel6, relax, tol, max_iter, nl, link_i, link_j, l_normal, wl,
                    l_unilateral, l_impulse, l_order, acc, hot_sweeps, factor, q, hot, hstart,
                    min_par):
@@ -266,7 +294,7 @@ def iterate_groups(T, n, start, c_i, c_j, frame, w, gterm, mu, ri, rj, impulse, 
         return 0, 0.0
     res = 0.0
     for it in range(max_iter):
-        res = sweep_groups(T, start, c_i, c_j, frame, w, gterm, mu, ri, rj, impulse, body_dyn,
+        res = sweep_groups(T, start, mid, c_i, c_j, frame, w, gterm, mu, ri, rj, impulse, body_dyn,
                            vel6, relax, nl, link_i, link_j, l_normal, wl, l_unilateral,
                            l_impulse, l_order, acc, q, min_par)
         if res < tol:
@@ -275,7 +303,7 @@ def iterate_groups(T, n, start, c_i, c_j, frame, w, gterm, mu, ri, rj, impulse, 
             continue
         hot_list(n, q, factor, hot, start, hstart)
         for _ in range(hot_sweeps):
-            _phases(1, T, hstart, hot, q, c_i, c_j, frame, w, gterm, mu, ri, rj, impulse,
+            _phases(1, T, hstart, mid, hot, q, c_i, c_j, frame, w, gterm, mu, ri, rj, impulse,
                     body_dyn, vel6, relax, acc, min_par)
     return max_iter, res
 
@@ -296,8 +324,9 @@ def iterate_parallel(T, n, c_i, c_j, frame, w, gterm, mu, ri, rj, impulse, body_
     nloc = body_dyn.shape[0]
     group = np.empty(n, np.int32)
     start = np.empty(2 * T + 1, np.int64)
+    mid = np.empty(2 * T, np.int64)
     order = np.empty(n, np.int32)
-    partition(n, T, c_i, c_j, body_dyn, nloc, group, start, order)
+    partition(n, T, c_i, c_j, body_dyn, nloc, group, start, order, mid)
     g_i = np.empty(n, np.int32)
     g_j = np.empty(n, np.int32)
     g_frame = np.empty((n, 9))
@@ -317,11 +346,11 @@ def iterate_parallel(T, n, c_i, c_j, frame, w, gterm, mu, ri, rj, impulse, body_
             it, res = run_anderson(workspace, anderson, n, n, g_i, g_j, g_frame, g_w, g_gterm,
                                    g_mu, g_ri, g_rj, g_imp, body_dyn, vel6, relax, tol, max_iter,
                                    nl, link_i, link_j, l_normal, wl, l_unilateral, l_impulse,
-                                   l_order, T, start, acc, PARALLEL_SWEEP_MIN_CONTACTS)
+                                   l_order, T, start, acc, PARALLEL_SWEEP_MIN_CONTACTS, mid)
         else:
             hot_sweeps = int(hot_sweeps)
             m = n if hot_sweeps > 0 else 0
-            it, res = iterate_groups(T, n, start, g_i, g_j, g_frame, g_w, g_gterm, g_mu, g_ri,
+            it, res = iterate_groups(T, n, start, mid, g_i, g_j, g_frame, g_w, g_gterm, g_mu, g_ri,
                                      g_rj, g_imp, body_dyn, vel6, relax, tol, max_iter, nl,
                                      link_i, link_j, l_normal, wl, l_unilateral, l_impulse,
                                      l_order, acc, hot_sweeps, HOT_FACTOR, np.empty(m),

@@ -176,6 +176,38 @@ def test_threaded_phases_equal_the_phases_in_turn(monkeypatch, threads, solver):
         assert np.array_equal(a.link_impulse, b.link_impulse)
 
 
+@pytest.mark.parametrize("T", [2, 3])
+def test_partition_puts_contacts_with_immobile_bodies_last(T):
+    """partition: every contact in exactly one group; inside group g, start[g]..mid[g] are
+    the contacts between two mobile bodies (swept without the guard) and mid[g]..start[g+1]
+    the ones touching a fixed wall or fixed bead, each part in the buffer's order.  The
+    wire-under-lid scene has both kinds, and a driven lid (shared group)."""
+    from engine.model import DYN_INV_INERTIA, DYN_INV_MASS
+    from engine.solver.parallel import partition
+
+    model, state, lid = wire_under_lid(tol=1e-4, max_iter=300)
+    for _ in range(3):
+        step(model, state)
+    c = state.contacts
+    ci, cj = c.i.astype(np.int32), c.j.astype(np.int32)
+    n, dyn = len(ci), model.body_dyn
+    group, order = np.empty(n, np.int32), np.empty(n, np.int32)
+    start, mid = np.empty(2 * T + 1, np.int64), np.empty(2 * T, np.int64)
+    partition(n, T, ci, cj, dyn, dyn.shape[0], group, start, order, mid)
+    assert np.array_equal(np.sort(order), np.arange(n))
+    immobile = (dyn[:, DYN_INV_MASS] == 0.0) & (dyn[:, DYN_INV_INERTIA] == 0.0)
+    touches = immobile[ci] | immobile[cj]
+    assert touches.sum() > 0 and (~touches).sum() > 0
+    for g in range(2 * T):
+        part = order[start[g]:start[g + 1]]
+        assert (group[part] == g).all()
+        head, tail = order[start[g]:mid[g]], order[mid[g]:start[g + 1]]
+        if g < 2 * T - 1:  # the shared group runs on one thread, with the full kernel
+            assert not touches[head].any() and touches[tail].all()
+        assert (np.diff(head) > 0).all() and (np.diff(tail) > 0).all()
+    assert (group[cj == lid] == 2 * T - 1).all()
+
+
 def test_parallel_with_wire_and_driven_wall():
     """Links (swept on one thread after the contacts) and a pressure-driven lid (its
     contacts are shared by every domain) give the serial result within tolerance."""

@@ -66,6 +66,8 @@ def test_run_stops_on_nan_naming_step_and_body():
 
 def test_ctrl_c_returns_the_state_reached_with_writers_flushed():
     model, state = _pile()
+    # the handler run() must put back (SIG_IGN when pytest runs as a background job)
+    before = signal.getsignal(signal.SIGINT)
 
     class Interrupter(Recorder):
         def write(self, model, state):
@@ -82,7 +84,7 @@ def test_ctrl_c_returns_the_state_reached_with_writers_flushed():
     run(ref_model, ref, 6, progress=False)
     run(model, state, 2, progress=False)
     np.testing.assert_array_equal(state.position, ref.position)
-    assert signal.getsignal(signal.SIGINT) is signal.default_int_handler
+    assert signal.getsignal(signal.SIGINT) is before
 
 
 def test_progress_bar_shows_rate_and_iterations(capsys):

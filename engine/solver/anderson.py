@@ -338,8 +338,8 @@ def iterate_anderson(n, n_pair, c_i, c_j, frame, w, gterm, mu, ri, rj, impulse, 
     for it in range(max_iter):
         if T > 1:
             res = sweep_groups(T, start, mid, c_i, c_j, frame, w, gterm, mu, ri, rj, impulse,
-                               body_dyn, vel6, relax, nl, link_i, link_j, l_normal, wl, l_unilateral,
-                               l_impulse, l_order, acc, rhs[:0], min_par)
+                               body_dyn, vel6, relax, nl, link_i, link_j, l_normal, wl,
+                               l_unilateral, l_impulse, l_order, acc, rhs[:0], min_par)
         else:
             res = sweep_all(n, n_pair, c_i, c_j, frame, w, gterm, mu, ri, rj, impulse, body_dyn,
                             vel6, relax, nl, link_i, link_j, l_normal, wl, l_unilateral,

@@ -194,51 +194,54 @@ def _group(kind, g, start, mid, hot, q, c_i, c_j, frame, w, gterm, mu, ri, rj, i
     return num, den
 
 
+@njit(cache=True)
+def _group_acc(kind, g, start, mid, hot, q, c_i, c_j, frame, w, gterm, mu, ri, rj, impulse,
+               body_dyn, vel6, relax, acc):
+    """:func:`_group`, its Quad sums written to row ``g`` of ``acc``."""
+    x, y = _group(kind, g, start, mid, hot, q, c_i, c_j, frame, w, gterm, mu, ri, rj, impulse,
+                  body_dyn, vel6, relax)
+    acc[g, 0] = x
+    acc[g, 1] = y
+
+
 @njit(cache=True, parallel=True)
-def _phase(kind, first, count, stride, start, mid, hot, q, c_i, c_j, frame, w, gterm, mu, ri, rj,
-           impulse, body_dyn, vel6, relax, acc):
-    """Groups first, first + stride, ... (``count`` of them) at once, one per thread; each
-    writes its Quad sums to its own row of ``acc``."""
+def _phase(kind, first, count, stride, start, mid, hot, q, c_i, c_j, frame, w, gterm, mu, ri,
+           rj, impulse, body_dyn, vel6, relax, acc):
+    """Groups first, first + stride, ... (``count`` of them) at once, one per thread."""
     for k in prange(count):
-        g = first + k * stride
-        x, y = _group(kind, g, start, mid, hot, q, c_i, c_j, frame, w, gterm, mu, ri, rj, impulse,
-                      body_dyn, vel6, relax)
-        acc[g, 0] = x
-        acc[g, 1] = y
+        _group_acc(kind, first + k * stride, start, mid, hot, q, c_i, c_j, frame, w, gterm, mu,
+                   ri, rj, impulse, body_dyn, vel6, relax, acc)
 
 
 @njit(cache=True)
-def _in_turn(kind, first, count, stride, start, mid, hot, q, c_i, c_j, frame, w, gterm, mu, ri, rj,
-             impulse, body_dyn, vel6, relax, acc):
+def _in_turn(kind, first, count, stride, start, mid, hot, q, c_i, c_j, frame, w, gterm, mu,
+             ri, rj, impulse, body_dyn, vel6, relax, acc):
     """:func:`_phase` on the calling thread, group after group (the groups of one phase
     share no body: the same result)."""
     for k in range(count):
-        g = first + k * stride
-        x, y = _group(kind, g, start, mid, hot, q, c_i, c_j, frame, w, gterm, mu, ri, rj, impulse,
-                      body_dyn, vel6, relax)
-        acc[g, 0] = x
-        acc[g, 1] = y
+        _group_acc(kind, first + k * stride, start, mid, hot, q, c_i, c_j, frame, w, gterm, mu,
+                   ri, rj, impulse, body_dyn, vel6, relax, acc)
 
 
 @njit(cache=True)
-def _phases(kind, T, start, mid, hot, q, c_i, c_j, frame, w, gterm, mu, ri, rj, impulse, body_dyn,
-            vel6, relax, acc, min_par):
+def _phases(kind, T, start, mid, hot, q, c_i, c_j, frame, w, gterm, mu, ri, rj, impulse,
+            body_dyn, vel6, relax, acc, min_par):
     """One pass over the groups in their race-free order: the ``T`` interiors at once, the
     even boundaries at once, the odd ones, then the shared contacts on one thread (full
     kernel: LINE walls).  A pass of fewer than ``min_par`` grouped contacts
     (:data:`PARALLEL_SWEEP_MIN_CONTACTS`) runs its phases on this thread.  ``kind``,
-    ``start``, ``hot``, ``q``: see :func:`_group`.
+    ``start``, ``mid``, ``hot``, ``q``: see :func:`_group`.
     Returns the Quad sums (num, den) of a full pass, summed in a fixed order."""
     ng = 2 * T
     in_turn = start[ng - 1] - start[0] < min_par
     # (first group, count, stride): interiors, even boundaries, odd boundaries
     for first, count, stride in ((0, T, 1), (T, T // 2, 2), (T + 1, (T - 1) // 2, 2)):
         if in_turn or count == 1:
-            _in_turn(kind, first, count, stride, start, mid, hot, q, c_i, c_j, frame, w, gterm, mu,
-                     ri, rj, impulse, body_dyn, vel6, relax, acc)
+            _in_turn(kind, first, count, stride, start, mid, hot, q, c_i, c_j, frame, w, gterm,
+                     mu, ri, rj, impulse, body_dyn, vel6, relax, acc)
         elif count > 1:
-            _phase(kind, first, count, stride, start, mid, hot, q, c_i, c_j, frame, w, gterm, mu,
-                   ri, rj, impulse, body_dyn, vel6, relax, acc)
+            _phase(kind, first, count, stride, start, mid, hot, q, c_i, c_j, frame, w, gterm,
+                   mu, ri, rj, impulse, body_dyn, vel6, relax, acc)
     return _shared_and_sum(kind, ng, start, hot, q, c_i, c_j, frame, w, gterm, mu, ri, rj,
                            impulse, body_dyn, vel6, relax, acc)
 

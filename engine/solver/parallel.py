@@ -154,6 +154,25 @@ def scatter(n, order, g_impulse, impulse):
 PARALLEL_SWEEP_MIN_CONTACTS = 4096
 
 
+@njit(cache=True, inline="always")
+def _run(lo, hi, q, c_i, c_j, frame, w, gterm, mu, ri, rj, impulse, body_dyn, vel6, relax,
+         guard):
+    """Contacts ``lo..hi`` of a group in order, with or without the immobile-body guard (a
+    constant at each call site); each ‖W Δp‖² stored in ``q`` unless ``q`` is empty.
+    Returns the Quad sums."""
+    keep = q.shape[0] > 0
+    num = 0.0
+    den = 0.0
+    for a in range(lo, hi):
+        x, y = _contact(a, c_i, c_j, frame, w, gterm, mu, ri, rj, impulse, body_dyn, vel6,
+                        relax, False, guard)
+        if keep:
+            q[a] = x
+        num += x
+        den += y
+    return num, den
+
+
 @njit(cache=True)
 def _group(kind, g, start, mid, hot, q, c_i, c_j, frame, w, gterm, mu, ri, rj, impulse,
            body_dyn, vel6, relax):
@@ -167,21 +186,12 @@ def _group(kind, g, start, mid, hot, q, c_i, c_j, frame, w, gterm, mu, ri, rj, i
     den = 0.0
     m = mid[g]
     if kind == 0:
-        keep = q.shape[0] > 0
-        for a in range(start[g], m):
-            x, y = _contact(a, c_i, c_j, frame, w, gterm, mu, ri, rj, impulse, body_dyn, vel6,
-                            relax, False, False)
-            if keep:
-                q[a] = x
-            num += x
-            den += y
-        for a in range(m, start[g + 1]):
-            x, y = _contact(a, c_i, c_j, frame, w, gterm, mu, ri, rj, impulse, body_dyn, vel6,
-                            relax, False, True)
-            if keep:
-                q[a] = x
-            num += x
-            den += y
+        num, den = _run(start[g], m, q, c_i, c_j, frame, w, gterm, mu, ri, rj, impulse,
+                        body_dyn, vel6, relax, False)
+        x, y = _run(m, start[g + 1], q, c_i, c_j, frame, w, gterm, mu, ri, rj, impulse,
+                    body_dyn, vel6, relax, True)
+        num += x
+        den += y
     else:
         for k in range(start[g], start[g + 1]):
             a = hot[k]

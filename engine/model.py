@@ -275,6 +275,54 @@ class Model:
         return replace(self, body_dof=_frozen(dof), body_line=_frozen(line),
                        body_dyn=_frozen(dyn), drives=drives)
 
+    def with_friction(self, mu: float, pairs=None) -> "Model":
+        """A copy in which the contacts between the groups of ``pairs`` (a list of
+        ``(group_a, group_b)``; every pair with a contact law by default) follow Coulomb's law
+        with friction coefficient ``mu`` [-] from the next step on.  The other pairs keep
+        their laws (a law shared with them is not changed: the listed pairs get a law row of
+        their own).  The State stays valid: the friction of a contact is read from the see
+        table at every step, and the solver projects a warm-start impulse outside the new
+        cone onto it.  Used for a stage with other friction, e.g. a frictionless compaction
+        before a triaxial test.
+        """
+        from dataclasses import replace
+
+        from . import laws as _laws
+
+        try:
+            m = float(mu)
+        except (TypeError, ValueError):
+            m = float("nan")
+        if not (np.isfinite(m) and m >= 0.0):
+            raise ValueError(f"mu must be a finite friction coefficient >= 0, got {mu!r}")
+        pair_law = self.pair_law.copy()
+        if pairs is None:
+            ng = len(self.group_names)
+            idx = [(a, b) for a in range(ng) for b in range(a, ng) if pair_law[a, b] >= 0]
+        else:
+            idx = []
+            for p in pairs:
+                if not (isinstance(p, (tuple, list)) and len(p) == 2):
+                    raise ValueError(f"pairs must be (group_a, group_b) tuples, got {p!r}")
+                a, b = self.group_id(p[0]), self.group_id(p[1])
+                if pair_law[a, b] < 0:
+                    raise ValueError(f"groups {p[0]!r} and {p[1]!r} do not interact: no "
+                                     "contact law to change")
+                idx.append((a, b))
+        law = _laws.Coulomb(mu=m)
+        laws = list(self.laws)
+        if law in laws:
+            row = laws.index(law)
+        else:
+            laws.append(law)
+            row = len(laws) - 1
+        for a, b in idx:
+            pair_law[a, b] = pair_law[b, a] = row
+        code = np.asarray([l.code for l in laws], np.int16)
+        param = np.asarray([l.params() for l in laws], float).reshape(len(laws), -1)
+        return replace(self, pair_law=_frozen(pair_law), law_code=_frozen(code),
+                       law_param=_frozen(param), laws=tuple(laws))
+
     def with_options(self, **changes) -> "Model":
         """A copy with some options changed (validated), e.g. ``model.with_options(dt=1e-5)``."""
         from dataclasses import replace

@@ -68,6 +68,38 @@ def _laws_for(scene, mu, mu_wall, mu_wire, wire):
         scene.interact("wire", "wall", laws.Coulomb(mu=mu_wire))
 
 
+def _compaction_mu(value, least=0.0):
+    """Check ``compaction_mu`` (None, or a friction coefficient >= ``least``)."""
+    if value is None:
+        return None
+    try:
+        m = float(value)
+    except (TypeError, ValueError):
+        m = float("nan")
+    if not (math.isfinite(m) and m >= least):
+        raise ValueError(f"compaction_mu must be None or a friction coefficient >= {least:g}, "
+                         f"got {value!r}")
+    return m
+
+
+def _compaction(model, compaction_mu):
+    """The model of the isotropic stage: ``model`` itself, or, with ``compaction_mu`` set,
+    a copy in which every contact (sand, wire and walls) has that friction coefficient
+    (:meth:`engine.model.Model.with_friction`).  The triaxial stage always runs with the test's
+    own ``mu``, ``mu_wall`` and ``mu_wire``.
+
+    A low-friction compaction is the usual DEM way to reach a denser packing whatever the
+    grains' friction (docs/paper.md, Fig. 14, has what it did to the cylinder samples).
+    """
+    return model if compaction_mu is None else model.with_friction(compaction_mu)
+
+
+#: Smallest ``compaction_mu`` of the cylinder test: at 0 the free-surface confinement let
+#: the frictionless grains out (scale 0.3, seed 0: the membrane radius blew up and the mean
+#: stress stayed at 5 kPa of the 15 kPa target); 0.1 and 0.2 held (docs/paper.md).
+CYLINDER_COMPACTION_MU_MIN = 0.1
+
+
 def _wire_law(wire_law):
     if wire_law is None:
         return laws.ElasticWire(stiffness=1.0)
@@ -99,7 +131,7 @@ def cylinder_triaxial(scale: float = 0.05, *, pressure: float = 15e3, wire: bool
                       theta: float = 0.5, tol: float = 3e-4, max_iter: int = 1000,
                       relax: float = 1.0, anderson: int = 4, threads: int = 1, hot_sweeps: int = 0, mu: float = 0.5,
                       mu_wall: float = 0.5,
-                      mu_wire: float = 0.3,
+                      mu_wire: float = 0.3, compaction_mu: float | None = None,
                       iso_tol: float = 0.02, iso_hold: int = 5, iso_max_steps: int = 4000,
                       confine_every: int = 10, record_every: int = 10, frames: int = 100,
                       torus_strains=(0.02, 0.05, 0.1), max_nonconverged: float = 0.25,
@@ -113,6 +145,9 @@ def cylinder_triaxial(scale: float = 0.05, *, pressure: float = 15e3, wire: bool
     constant velocity.  The paper's confining pressure for this test is not given: 15 kPa,
     its box test's, is the default.  ``wire_law``: the paper's ElasticWire(k = 1 N) by
     default; RigidWire() or ElasticWire(k) with k from 0.1 to 100 N for Table 2.
+    ``compaction_mu``: the friction coefficient of every contact during the isotropic stage
+    (None: the test's own; at least :data:`CYLINDER_COMPACTION_MU_MIN`), see
+    :func:`_compaction`.
 
     Returns a :class:`TestResult` (triaxial stage; the isotropic stage in
     ``extra["isotropic"]``); ``extra`` also holds the toroidal wire-stress maps at
@@ -125,6 +160,7 @@ def cylinder_triaxial(scale: float = 0.05, *, pressure: float = 15e3, wire: bool
     scale = check_scale(scale)
     p = _common_checks(pressure, max_nonconverged, target_I, record_every)
     eps_max = check_positive("axial_strain", axial_strain, "[-]")
+    compaction_mu = _compaction_mu(compaction_mu, CYLINDER_COMPACTION_MU_MIN)
     law = _wire_law(wire_law) if wire else None
     sample = cylinder_sample(scale, wire=wire, seed=seed)
     across = 2 * sample.container.radius / (2 * float(sample.sand_radii.mean()))
@@ -154,6 +190,7 @@ def cylinder_triaxial(scale: float = 0.05, *, pressure: float = 15e3, wire: bool
     model, state = sc.compile(dt=dt, theta=theta, tol=tol, max_iter=max_iter, relax=relax,
                               anderson=anderson, threads=threads, hot_sweeps=hot_sweeps)
     conf.apply(model, state)
+    model_iso = _compaction(model, compaction_mu)
     x_ref = {}
     stage = {"value": 0}
     stage_of = []
@@ -179,7 +216,7 @@ def cylinder_triaxial(scale: float = 0.05, *, pressure: float = 15e3, wire: bool
     hist = history_writer(history, rec, units, record_every, frames)
     H0 = top_z
     est_steps = iso_max_steps + int(eps_max / (rate * dt)) + 1
-    stages = Stages(model, state, [rec, hist], progress=progress, total=est_steps,
+    stages = Stages(model_iso, state, [rec, hist], progress=progress, total=est_steps,
                     desc="cylinder triaxial")
     maps = {}
     R0 = conf.radius
@@ -229,7 +266,8 @@ def cylinder_triaxial(scale: float = 0.05, *, pressure: float = 15e3, wire: bool
                       theta=theta, tol=tol, max_iter=max_iter, anderson=anderson, threads=threads,
                       hot_sweeps=hot_sweeps, mu=mu,
                       mu_wall=mu_wall,
-                      mu_wire=mu_wire, seed=seed, n_sand=int(sample.sand_radii.size),
+                      mu_wire=mu_wire, compaction_mu=compaction_mu, seed=seed,
+                      n_sand=int(sample.sand_radii.size),
                       n_beads=sample.n_beads, d_mean=d_mean, iso_reached=iso_reached)
     if len(res.time):
         res.extra["radial_strain"] = tri["radius"] / R0 - 1          # extension positive
@@ -346,7 +384,8 @@ def box_triaxial(scale: float = 0.05, *, pressure: float = 15e3, wire: bool = Tr
                  allow_dynamic: bool = False, dt: float = 5e-5, theta: float = 0.5,
                  tol: float = 3e-4, max_iter: int = 1000, relax: float = 1.0,
                  anderson: int = 4, threads: int = 1, hot_sweeps: int = 0, mu: float = 0.5, mu_wall: float = 0.0,
-                 mu_wire: float = 0.3, wall_mass: float | None = None, iso_tol: float = 0.02,
+                 mu_wire: float = 0.3, compaction_mu: float | None = None,
+                 wall_mass: float | None = None, iso_tol: float = 0.02,
                  iso_hold: int = 5, iso_max_steps: int = 4000, check_every: int = 10,
                  ramp_steps: int = 400,
                  record_every: int = 10, frames: int = 100, max_nonconverged: float = 0.25,
@@ -359,6 +398,7 @@ def box_triaxial(scale: float = 0.05, *, pressure: float = 15e3, wire: bool = Tr
     four side walls under ``pressure`` (paper: about 15 kPa; pressure drives whose area
     follows the sample) and a top wall servo-controlled to the same stress, then moved down
     at a constant velocity.  The side walls are frictionless by default (``mu_wall``).
+    ``compaction_mu``: the friction of the isotropic stage, see :func:`_compaction`.
 
     ``extra`` holds the wall stresses (compression positive: x−, x+, y−, y+, top) per
     record, the wire Weber stress of the upper and lower halves with principal values and
@@ -368,6 +408,7 @@ def box_triaxial(scale: float = 0.05, *, pressure: float = 15e3, wire: bool = Tr
     scale = check_scale(scale)
     p = _common_checks(pressure, max_nonconverged, target_I, record_every)
     eps_max = check_positive("axial_strain", axial_strain, "[-]")
+    compaction_mu = _compaction_mu(compaction_mu)
     law = _wire_law(wire_law) if wire else None
     sample = box_sample(scale, wire=wire, bead_radius=bead_radius, seed=seed)
     box = sample.container
@@ -457,8 +498,8 @@ def box_triaxial(scale: float = 0.05, *, pressure: float = 15e3, wire: bool = Tr
                  radius="m", time="s", step="-")
     hist = history_writer(history, rec, units, record_every, frames)
     est_steps = iso_max_steps + int(eps_max / (rate * dt)) + 1
-    stages = Stages(model, state, [rec, hist], progress=progress, total=est_steps,
-                    desc="box triaxial")
+    stages = Stages(_compaction(model, compaction_mu), state, [rec, hist], progress=progress,
+                    total=est_steps, desc="box triaxial")
     strains = {}
     H0 = top_z
     try:
@@ -492,7 +533,7 @@ def box_triaxial(scale: float = 0.05, *, pressure: float = 15e3, wire: bool = Tr
                       inertial_number=I, loading_velocity=rate * H0, dt=dt, theta=theta,
                       tol=tol, max_iter=max_iter, anderson=anderson, threads=threads,
                       hot_sweeps=hot_sweeps, mu=mu, mu_wall=mu_wall,
-                      mu_wire=mu_wire,
+                      mu_wire=mu_wire, compaction_mu=compaction_mu,
                       wall_mass=wall_mass, seed=seed, n_sand=int(sample.sand_radii.size),
                       n_beads=sample.n_beads, d_mean=d_mean, iso_reached=iso_reached)
     res.extra["isotropic"] = dict(time=iso.get("time"), mean_stress=_mean(iso.get("stress")),

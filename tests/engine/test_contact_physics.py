@@ -49,6 +49,60 @@ def test_sliding_sphere_ends_rolling_at_five_sevenths(theta):
     assert abs(state.velocity[1, 1]) < 1e-12 and abs(state.velocity[1, 2]) < 1e-9
 
 
+def test_with_friction_changes_the_sliding_deceleration_mid_run(theta):
+    """Two spheres sliding on a floor (groups a and b, same Coulomb law): while sliding, a
+    step's friction impulse is μ m g h, so v drops by μ g h per step.  Model.with_friction
+    (0, [(a, wall)]) stops a's deceleration at once and leaves b's (the shared law is not
+    changed); with_friction(0.6) then gives both 0.6 g.  Rounding-level tolerances."""
+    r, v0, dt = 0.01, 1.0, 1e-4
+    s = Scene(gravity=(0, 0, -G))
+    s.add_plane(group="wall")
+    ia = s.add_spheres([[0.0, 0.0, r]], r, density=2650.0, velocities=[[v0, 0, 0]], group="a")
+    ib = s.add_spheres([[0.0, 1.0, r]], r, density=2650.0, velocities=[[v0, 0, 0]], group="b")
+    s.interact("a", "wall", laws.Coulomb(mu=0.3))
+    s.interact("b", "wall", laws.Coulomb(mu=0.3))
+    s.interact("a", "b", laws.Coulomb(mu=0.3))
+    s.interact("a", "a", None)
+    s.interact("b", "b", None)
+    model, state = s.compile(dt=dt, theta=theta, tol=1e-12)
+    a, b = int(ia[0]), int(ib[0])
+
+    def vx(k):
+        return state.velocity[k, 0]
+
+    def run_steps(m, n):
+        for _ in range(n):
+            assert step(m, state).converged
+
+    run_steps(model, 5)  # the contacts exist (the first step lands them)
+    for m, n, mu_a, mu_b in ((model, 20, 0.3, 0.3),
+                             (model.with_friction(0.0, [("a", "wall")]), 20, 0.0, 0.3),
+                             (model.with_friction(0.6), 20, 0.6, 0.6)):
+        va, vb = vx(a), vx(b)
+        run_steps(m, n)
+        assert va - vx(a) == pytest.approx(mu_a * G * dt * n, rel=1e-9, abs=1e-12)
+        assert vb - vx(b) == pytest.approx(mu_b * G * dt * n, rel=1e-9, abs=1e-12)
+    assert model.law_param[model.pair_law[model.group_id("b"), model.group_id("wall")], 0] == 0.3
+
+
+def test_with_friction_refuses_bad_input():
+    s = Scene(gravity=(0, 0, -G))
+    s.add_plane(group="wall")
+    s.add_spheres([[0.0, 0.0, 0.01]], 0.01, density=2650.0)
+    s.interact("sand", "wall", laws.Coulomb(mu=0.3))
+    s.interact("sand", "sand", None)
+    model, _ = s.compile(dt=1e-4)
+    for bad in (-0.1, float("nan"), "x", None):
+        with pytest.raises(ValueError, match="mu must be"):
+            model.with_friction(bad)
+    with pytest.raises(ValueError, match="unknown group"):
+        model.with_friction(0.1, [("sand", "grains")])
+    with pytest.raises(ValueError, match="do not interact"):
+        model.with_friction(0.1, [("sand", "sand")])
+    with pytest.raises(ValueError, match="pairs must be"):
+        model.with_friction(0.1, ["sand"])
+
+
 def test_perfectly_inelastic_head_on_impact(theta):
     """Momentum conserved to 1e-12 relative; the two spheres leave with one common velocity."""
     s = Scene(gravity=(0, 0, 0))

@@ -120,10 +120,36 @@ def test_slope_deposit(tmp_path):
     (box_triaxial, dict(max_nonconverged=2.0), "max_nonconverged"),
     (cylinder_triaxial, dict(scale=0.01), "diameters across"),
     (slope_deposit, dict(threads=0), "threads"),
+    (cylinder_triaxial, dict(compaction_mu=0.0), "compaction_mu"),
+    (box_triaxial, dict(compaction_mu=-0.1), "compaction_mu"),
 ])
 def test_bad_input(fn, kw, field, tmp_path):
     with pytest.raises(ValueError, match=field):
         fn(history=str(tmp_path / "x.h5"), progress=False, **kw)
+
+
+def test_compaction_friction_holds_in_the_isotropic_stage_only(monkeypatch, tmp_path):
+    """compaction_mu is the friction of every contact while the pressure is applied; the
+    axial loading runs with the test's own mu (sand-sand) and mu_wire."""
+    from engine.experiments import common
+
+    seen = []
+    run = common.Stages.run
+
+    def spy(self, n):
+        m = self.model
+        law = m.pair_law
+        seen.append((m.law_param[law[m.group_id("sand"), m.group_id("sand")], 0],
+                     m.law_param[law[m.group_id("wire"), m.group_id("sand")], 0]))
+        return run(self, n)
+
+    monkeypatch.setattr(common.Stages, "run", spy)
+    r = box_triaxial(0.02, axial_strain=0.002, iso_max_steps=50, compaction_mu=0.05,
+                     history=str(tmp_path / "b.h5"), progress=False, max_nonconverged=1.0)
+    assert r.params["compaction_mu"] == 0.05
+    assert seen[0] == (0.05, 0.05) and seen[-1] == (0.5, 0.3)
+    k = seen.index((0.5, 0.3))
+    assert set(seen[:k]) == {(0.05, 0.05)} and set(seen[k:]) == {(0.5, 0.3)}
 
 
 def test_fails_loudly_when_steps_do_not_converge(tmp_path):

@@ -186,6 +186,20 @@ def test_toroidal_map_of_an_r_only_field_is_constant_in_z():
         np.testing.assert_allclose(col, np.broadcast_to(col[0], col.shape), rtol=0,
                                    atol=1e-9 * np.abs(col).max())
     assert tm.equivalent[1, 0] > tm.equivalent[0, 0] > 0  # the outer, tighter rings
+    # slabs: Eq. (18) is a sum over the region's particles, so a slab's stress is its cells'
+    # volume-weighted mean; here the same in every slab
+    from engine.analysis import weber_stress
+    from engine.prep.containers import TorusCell
+
+    slabs = tm.slab_stress()
+    for b in range(nz):
+        direct = weber_stress(model, state, region=TorusCell(0.0, R, tm.z_edges[b],
+                                                              tm.z_edges[b + 1]), part="wire")
+        np.testing.assert_allclose(slabs[b], direct.tensor, rtol=0,
+                                   atol=1e-12 * np.abs(direct.tensor).max())
+    eq = tm.slab_equivalent()
+    np.testing.assert_allclose(eq, eq[0], rtol=1e-12)
+    assert eq[0] > 0
 
 
 def test_macro_stiffness_recovers_the_slope_of_a_noisy_line():

@@ -9,6 +9,7 @@ import subprocess
 import sys
 from pathlib import Path
 
+import numpy as np
 import pytest
 
 pytest.importorskip("distributed")
@@ -34,8 +35,25 @@ def test_cases_cover_the_figures():
             assert need in names, (s.name, need)
         for seed in s.fig14_seeds:
             assert f"cylinder_sand_seed{seed}" in names
+            assert f"cylinder_k1_seed{seed}" in names   # Fig. 13c on every seed
         assert len(s.fig14_seeds) >= 2                  # a spread for the +7 % claim
     assert SCALES["default"].k_list == (0.1, 0.2, 0.5, 1, 2, 5, 10, 20, 50, 100)
+
+
+def test_fig13c_reads_the_mean_slab_profile_of_the_seeds():
+    """One seed with its largest slab on the floor and one at mid-height: the mean profile
+    decides; each seed's own maximum is listed; no run gives no verdict."""
+    from workbench.paper import _fig13c
+
+    ze = np.linspace(0.0, 6e-3, 7)
+    run = lambda prof: dict(torus_z_edges=ze, torus_slab_equivalent=np.asarray(prof, float),
+                            torus_equivalent=np.ones((2, 6)), torus_strain=0.1)
+    ok, text = _fig13c([run([9, 0, 4, 4, 0, 0]), run([0, 0, 6, 6, 0, 0])], (0, 1))
+    assert ok is True and "z/H = 0.42" in text
+    assert "seed 0: 0.08" in text and "seed 1: 0.42" in text
+    ok, _ = _fig13c([run([9, 0, 4, 4, 0, 0]), run([9, 0, 6, 6, 0, 0])], (0, 1))
+    assert ok is False
+    assert _fig13c([None, dict(torus_strain=0.1)], (0, 1)) == (None, "runs missing")
 
 
 @pytest.mark.timeout(600)

@@ -36,8 +36,31 @@ def test_cases_cover_the_figures():
         for seed in s.fig14_seeds:
             assert f"cylinder_sand_seed{seed}" in names
             assert f"cylinder_k1_seed{seed}" in names   # Fig. 13c on every seed
+            assert f"box_rw1_seed{seed}" in names       # Fig. 11 on every seed
         assert len(s.fig14_seeds) >= 2                  # a spread for the +7 % claim
     assert SCALES["default"].k_list == (0.1, 0.2, 0.5, 1, 2, 5, 10, 20, 50, 100)
+
+
+def test_fig11_reads_every_seed():
+    """11a: the worst seed decides; 11b: the seeds' mean upper tensor; 11c: the upper/lower
+    ratio paired by seed must exceed 1 beyond 2 standard errors."""
+    from workbench.paper import _fig11
+
+    def run(up, lo, smallest=0.0):
+        ws = np.array([np.diag([1.0, 1.0, smallest]), np.diag([2.0, 1.0, 0.5])])
+        return dict(wire_stress=ws, wire_stress_upper=np.array([np.diag(up)]),
+                    wire_stress_lower=np.array([np.diag(lo)]))
+
+    runs = [run([2.0, 1.0, 0.2], [1.0, 0.5, 0.1]), run([2.2, 1.0, 0.3], [1.0, 0.5, 0.1]),
+            run([1.8, 1.2, 0.2], [0.9, 0.5, 0.1], smallest=-0.5)]
+    (a, ta), (b, tb), (c, tc) = _fig11(runs, (0, 1, 2))
+    assert a is False and "seed 2" in ta                      # one seed compresses its wire
+    assert b is True and "σ_zz / max horizontal = 0.12" in tb   # mean (2, 1.07, 0.23)
+    assert c is True and "over 3 seeds" in tc
+    runs[1] = run([0.5, 0.4, 0.1], [1.0, 0.5, 0.1])             # one seed the other way
+    (_, _), (_, _), (c, _) = _fig11(runs, (0, 1, 2))
+    assert c is False
+    assert _fig11([None, None], (0, 1))[2] == (None, "runs missing")
 
 
 def test_fig13c_reads_the_mean_slab_profile_of_the_seeds():

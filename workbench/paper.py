@@ -79,7 +79,7 @@ SCALES = {
                     "10 k values; every claim is marked not comparable"),
     # sized to about ten minutes on two cores (docs/paper.md): the cylinder goes to the
     # paper's 10 % strain, where the wire stress has a trend to fit (at 5 % and 620 grains
-    # it had none), and Fig. 14 gets 5 seeds
+    # it had none), and Fig. 11, 13c and 14 get 5 seeds
     "default": Scale(
         "default", False,
         slope=dict(scale=0.05, steps=4000, dt=1e-4, frames=500),
@@ -88,7 +88,8 @@ SCALES = {
         fig14_seeds=(0, 1, 2, 3, 4), k_list=tuple(PAPER_VALUES["table2_k"]),
         description="reduced samples (1 300 slope grains, 1 300 box grains, 1 860 cylinder "
                     "grains: 5-30 % of the paper's counts), 5 % strain in the box and the "
-                    "paper's 10 % in the cylinder, 5 seeds for Fig. 14, the paper's 10 k values"),
+                    "paper's 10 % in the cylinder, 5 seeds for Fig. 11, 13c and 14, the paper's "
+                    "10 k values"),
     "paper": Scale(
         "paper", False,
         slope=dict(scale=1.0, steps=4000, dt=5e-5, frames=500),
@@ -1093,7 +1094,8 @@ def _markdown(scale, claims, figs, pvds, table, rows, curves, out, wall, t_sim, 
           "pressure 15 kPa, inertial number I = 5e-4 (quasi-static), dt = 5e-5 s (slope: the "
           "scale's dt), θ = 0.5, NLGS tol 3e-4 (triaxial) / 1e-4 (slope), μ sand 0.5, μ wire "
           "0.3; wire law ElasticWire(k = 1 N) unless the run says otherwise. Seeds: 0 for every "
-          f"figure, {list(scale.fig14_seeds)} for Fig. 14 (the +7 % effect).", ""]
+          f"figure, {list(scale.fig14_seeds)} for Fig. 11, Fig. 13c and Fig. 14 (small effects "
+          "and sparse maps).", ""]
     if problems:
         L += ["## Problems", ""] + [f"- {p}" for p in problems] + [""]
     if table.failed:

@@ -281,9 +281,11 @@ class Model:
         with friction coefficient ``mu`` [-] from the next step on.  The other pairs keep
         their laws (a law shared with them is not changed: the listed pairs get a law row of
         their own).  The State stays valid: the friction of a contact is read from the see
-        table at every step, and the solver projects a warm-start impulse outside the new
-        cone onto it.  Used for a stage with other friction, e.g. a frictionless compaction
-        before a triaxial test.
+        table at every step, and a warm-start impulse outside the new cone is replaced by the
+        local solution, inside it, at the contact's first Gauss–Seidel update (with the
+        default ``relax`` = 1; a smaller relaxation gets there over the sweeps).  Used
+        for a stage with other friction, e.g. a low-friction compaction before a triaxial
+        test (``compaction_mu`` of :mod:`engine.experiments.triaxial`).
         """
         from dataclasses import replace
 

@@ -68,8 +68,9 @@ def _laws_for(scene, mu, mu_wall, mu_wire, wire):
         scene.interact("wire", "wall", laws.Coulomb(mu=mu_wire))
 
 
-def _compaction_mu(value, least=0.0):
-    """Check ``compaction_mu`` (None, or a friction coefficient >= ``least``)."""
+def _compaction_mu(value, least=0.0, why=""):
+    """Check ``compaction_mu`` (None, or a friction coefficient >= ``least``; ``why``: the
+    reason for ``least``, for the message)."""
     if value is None:
         return None
     try:
@@ -77,8 +78,8 @@ def _compaction_mu(value, least=0.0):
     except (TypeError, ValueError):
         m = float("nan")
     if not (math.isfinite(m) and m >= least):
-        raise ValueError(f"compaction_mu must be None or a friction coefficient >= {least:g}, "
-                         f"got {value!r}")
+        raise ValueError(f"compaction_mu must be None or a friction coefficient >= {least:g}"
+                         f"{why}, got {value!r}")
     return m
 
 
@@ -160,7 +161,9 @@ def cylinder_triaxial(scale: float = 0.05, *, pressure: float = 15e3, wire: bool
     scale = check_scale(scale)
     p = _common_checks(pressure, max_nonconverged, target_I, record_every)
     eps_max = check_positive("axial_strain", axial_strain, "[-]")
-    compaction_mu = _compaction_mu(compaction_mu, CYLINDER_COMPACTION_MU_MIN)
+    compaction_mu = _compaction_mu(compaction_mu, CYLINDER_COMPACTION_MU_MIN,
+                                   " (at 0 the free-surface confinement let the "
+                                   "frictionless grains out)")
     law = _wire_law(wire_law) if wire else None
     sample = cylinder_sample(scale, wire=wire, seed=seed)
     across = 2 * sample.container.radius / (2 * float(sample.sand_radii.mean()))

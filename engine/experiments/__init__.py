@@ -7,9 +7,9 @@ size), recording an HDF5 history (:class:`engine.io.History`) and returning a
 * :func:`box_triaxial` — §3.2, Fig. 11-12;
 * :func:`cylinder_triaxial` — §3.3, Fig. 13-16, Table 2.
 """
-from .common import ConvergenceError, TestResult, inertial_number, inertial_rate
+from .common import ConfinementError, ConvergenceError, TestResult, inertial_number, inertial_rate
 from .slope import SlopeResult, slope_deposit
 from .triaxial import box_triaxial, cylinder_triaxial
 
 __all__ = ["slope_deposit", "box_triaxial", "cylinder_triaxial", "TestResult", "SlopeResult",
-           "ConvergenceError", "inertial_rate", "inertial_number"]
+           "ConvergenceError", "ConfinementError", "inertial_rate", "inertial_number"]

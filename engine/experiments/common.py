@@ -23,6 +23,12 @@ class ConvergenceError(RuntimeError):
         self.result = result
 
 
+class ConfinementError(RuntimeError):
+    """The cylinder's free-surface confinement lost the sample: grains left the membrane and
+    its radius ran away (:data:`engine.experiments.triaxial.RADIUS_RUNAWAY`).  The history
+    file keeps what was recorded up to then."""
+
+
 @dataclass
 class TestResult:
     """Curves of a mechanical test, one row per recorded step.

@@ -152,6 +152,32 @@ def test_compaction_friction_holds_in_the_isotropic_stage_only(monkeypatch, tmp_
     assert set(seen[:k]) == {(0.05, 0.05)} and set(seen[k:]) == {(0.5, 0.3)}
 
 
+def test_cylinder_stops_when_the_sample_comes_apart(monkeypatch, tmp_path):
+    """A membrane radius that runs away (grains out of the free-surface confinement: the
+    radius grew 150-200x on some samples of scale 0.04) stops the test with a clear error
+    instead of loading a sample that is no longer there.  Simulated here: from the 4th
+    update on, the confinement reports twice its radius."""
+    from engine.drivers import Confinement
+    from engine.experiments import ConfinementError
+
+    calls = {"n": 0}
+    apply = Confinement.apply
+
+    def runaway(self, model, state):
+        apply(self, model, state)
+        calls["n"] += 1
+        if calls["n"] >= 4:
+            self.radius *= 2.0
+
+    monkeypatch.setattr(Confinement, "apply", runaway)
+    path = tmp_path / "c.h5"
+    with pytest.raises(ConfinementError, match=r"came apart at step \d+: the confinement radius "
+                                               r"grew from .* mm to .* mm"):
+        cylinder_triaxial(0.05, axial_strain=0.01, history=str(path), progress=False)
+    assert calls["n"] == 4
+    assert read_history(str(path)).n_records >= 1      # what was run is kept
+
+
 def test_fails_loudly_when_steps_do_not_converge(tmp_path):
     with pytest.raises(ConvergenceError, match="hit max_iter") as e:
         box_triaxial(0.02, axial_strain=0.002, max_iter=2, tol=1e-12, max_nonconverged=0.1,

@@ -384,7 +384,7 @@ def _fig11(runs, seeds):
         up = np.mean(ups, axis=0)
         h = max(up[0, 0], up[1, 1])
         ratio = float(up[2, 2] / h) if h > 0 else float("nan")
-        b = (bool(h > 0 and ratio < 1 / 3 and min(up[0, 0], up[1, 1]) > 0) if h > 0 else None,
+        b = (bool(ratio < 1 / 3 and min(up[0, 0], up[1, 1]) > 0) if h > 0 else None,
              f"upper half at the end, mean of {len(ups)} seeds: σ_xx {up[0, 0]:.3g}, σ_yy "
              f"{up[1, 1]:.3g}, σ_zz {up[2, 2]:.3g} Pa (σ_zz / max horizontal = {ratio:.2f}; "
              "per seed " + ", ".join(per_b) + ")")

@@ -37,8 +37,34 @@ def test_cases_cover_the_figures():
             assert f"cylinder_sand_seed{seed}" in names
             assert f"cylinder_k1_seed{seed}" in names   # Fig. 13c on every seed
             assert f"box_rw1_seed{seed}" in names       # Fig. 11 on every seed
+        from workbench.paper import fig10_seeds
+        assert len(fig10_seeds(s)) >= 2
+        for seed in fig10_seeds(s):                     # Fig. 10 on several seeds
+            for tag in ("sand", "w400", "w800"):
+                assert f"slope_{tag}_seed{seed}" in names
         assert len(s.fig14_seeds) >= 2                  # a spread for the +7 % claim
     assert SCALES["default"].k_list == (0.1, 0.2, 0.5, 1, 2, 5, 10, 20, 50, 100)
+
+
+def test_fig10_pairs_the_heaps_by_seed():
+    """10a: each TexSol heap steeper than the sand heap of the same seed beyond 2 standard
+    errors; 10b: 800 km·m⁻³ steeper than 400 the same way; one seed gives no verdict."""
+    from workbench.paper import _fig10
+
+    def seed(sand, w400, w800):
+        r = lambda th: dict(max_slope_deg=th, linear_slope_deg=th - 1.0)
+        return dict(sand=r(sand), w400=r(w400), w800=r(w800))
+
+    a, b = _fig10([seed(10, 13, 15), seed(11, 13.5, 16), seed(9, 12.8, 14.5)], (0, 1, 2))
+    assert a[0] is True and b[0] is True
+    assert "400 +3.1° ± 0.7°" in a[1] and "seed 2: 9.0°, 12.8°, 14.5°" in a[1]
+    a, b = _fig10([seed(10, 13, 13), seed(11, 13.5, 13.4), seed(9, 12.8, 12.9)], (0, 1, 2))
+    assert a[0] is True and b[0] is False                  # 800 - 400: +0.0 ± 0.1
+    a, b = _fig10([seed(10, 13, 9), seed(11, 13.5, 14), seed(9, 12.8, 8)], (0, 1, 2))
+    assert a[0] is False                                   # 800 - sand: +0.3 ± 2.3
+    a, b = _fig10([seed(10, 13, 15), dict(sand=None, w400=None, w800=None)], (0, 1))
+    assert a[0] is None and b[0] is None and "(one seed)" in a[1]
+    assert _fig10([dict(sand=None, w400=None, w800=None)], (0,))[0] == (None, "runs missing")
 
 
 def test_fig11_reads_every_seed():

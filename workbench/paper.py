@@ -79,9 +79,9 @@ SCALES = {
         fig14_seeds=(0, 1), k_list=(0.1, 1.0, 10.0, 100.0),
         description="smoke scale: samples of 200-400 grains, 1-2 % strain, 2 seeds, 4 of the "
                     "10 k values; every claim is marked not comparable"),
-    # sized to about ten minutes on two cores (docs/paper.md): the cylinder goes to the
+    # about 17 minutes on two cores (docs/paper.md): the cylinder goes to the
     # paper's 10 % strain, where the wire stress has a trend to fit (at 5 % and 620 grains
-    # it had none), and Fig. 11, 13c and 14 get 5 seeds
+    # it had none), Fig. 11, 13c and 14 get 5 seeds and Fig. 10 the first 3
     "default": Scale(
         "default", False,
         slope=dict(scale=0.05, steps=4000, dt=1e-4, frames=500),

@@ -44,7 +44,7 @@ from numba import njit, prange
 
 from .local import project_disk
 from .nlgs import _apply, _apply_link, sweep_all
-from .parallel import sweep_groups
+from .parallel import phases, sweep_groups
 
 #: Sweeps between two mixings.  A mixing costs about 1.3 sweeps on the 1 000-sphere
 #: deposit (a streaming pass over the history and a pass that moves the velocities); one
@@ -291,7 +291,7 @@ def _mix_groups(par, T, start, k, gamma, dg, w, mu, frame, c_i, c_j, ri, rj, imp
     in the phases of its sweep (no two threads write the same body); each phase on the
     threads when ``par``, else its groups in turn (the same result)."""
     ng = 2 * T
-    for first, count, stride in ((0, T, 1), (T, T // 2, 2), (T + 1, (T - 1) // 2, 2)):
+    for first, count, stride in phases(T):
         if par and count > 1:
             _mix_phase(first, count, stride, start, k, gamma, dg, w, mu, frame, c_i, c_j, ri,
                        rj, impulse, body_dyn, vel6, x)

@@ -155,6 +155,15 @@ PARALLEL_SWEEP_MIN_CONTACTS = 4096
 
 
 @njit(cache=True, inline="always")
+def phases(T):
+    """The race-free order of the ``T`` domains' groups (:func:`partition`), as
+    (first group, count, stride) per phase: the ``T`` interiors, the even boundaries, the odd
+    boundaries.  The groups of one phase share no mobile body; the shared group, last,
+    runs alone."""
+    return ((0, T, 1), (T, T // 2, 2), (T + 1, (T - 1) // 2, 2))
+
+
+@njit(cache=True, inline="always")
 def _run(lo, hi, q, c_i, c_j, frame, w, gterm, mu, ri, rj, impulse, body_dyn, vel6, relax,
          guard):
     """Contacts ``lo..hi`` of a group in order, with or without the immobile-body guard (a
@@ -244,8 +253,7 @@ def _phases(kind, T, start, mid, hot, q, c_i, c_j, frame, w, gterm, mu, ri, rj, 
     Returns the Quad sums (num, den) of a full pass, summed in a fixed order."""
     ng = 2 * T
     in_turn = start[ng - 1] - start[0] < min_par
-    # (first group, count, stride): interiors, even boundaries, odd boundaries
-    for first, count, stride in ((0, T, 1), (T, T // 2, 2), (T + 1, (T - 1) // 2, 2)):
+    for first, count, stride in phases(T):
         if in_turn or count == 1:
             _in_turn(kind, first, count, stride, start, mid, hot, q, c_i, c_j, frame, w, gterm,
                      mu, ri, rj, impulse, body_dyn, vel6, relax, acc)

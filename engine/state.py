@@ -27,6 +27,10 @@ class StepStats:
         Active contacts solved in this step.
     rebuilt : bool
         The candidate-pair list was rebuilt in this step.
+    late_contacts : int
+        Contacts that the free velocities left open but the solved ones closed (a grain
+        stopped under a falling one at a large time step): added, and the step solved
+        again (:func:`engine.step.step`).  Their sweeps are in ``iterations``.
     """
 
     iterations: int = 0
@@ -34,6 +38,7 @@ class StepStats:
     converged: bool = True
     n_contacts: int = 0
     rebuilt: bool = False
+    late_contacts: int = 0
 
 
 class ContactBuffers:
@@ -112,6 +117,9 @@ class State:
         Candidate sphere–sphere pairs of the broadphase (closer than alert + skin).
     pairs_ref : (nb, 3) float64 [m]
         Positions at the last broadphase build.
+    pairs_margin : float [m]
+        Surface distance of that build (0: alert + skin, as in files written before it was
+        kept); larger when a fast step widened it (:func:`engine.contact.rebuild_pairs`).
     warm_key : (k,) int64 sorted ; warm_impulse : (k, 3) float64 [N·s, global frame]
         Impulses of the previous step, for the warm start.
     stats : StepStats
@@ -144,6 +152,7 @@ class State:
     pairs: np.ndarray = None
     n_pairs: int = 0
     pairs_ref: np.ndarray = None
+    pairs_margin: float = 0.0
     warm_key: np.ndarray = field(default_factory=lambda: np.zeros(0, np.int64))
     warm_impulse: np.ndarray = field(default_factory=lambda: np.zeros((0, 3)))
     stats: StepStats = field(default_factory=StepStats)

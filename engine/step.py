@@ -9,7 +9,11 @@ The order of one step (each stage a public function of ``(model, state)``, testa
    half the skin) and narrowphase at q_m: active contacts, gaps, local frames;
 3. :func:`engine.solver.nlgs.solve` — warm start from the previous step's impulses, NLGS
    sweeps on Signorini + Coulomb (Eq. 5-6) until the Quad residual is below ``tol`` or
-   ``max_iter``; the body velocities become v_{i+1};
+   ``max_iter``; the body velocities become v_{i+1}.  If the solve changed a velocity by
+   more than the alert distance over the step, the narrowphase looks again with the solved
+   velocities: a pair they close (a grain stopped under a falling one, whose free velocities
+   were equal) is added and the step solved again from the impulses found, until the
+   contacts no longer change or :data:`LATE_PASSES` times;
 4. :func:`engine.integrator.update` — q_{i+1} = q_m + θ h v_{i+1}; time advances by h.
 
 :func:`run` then calls every writer whose trigger fires (writers never modify the state).
@@ -24,10 +28,14 @@ from typing import Callable, Iterable
 
 import numpy as np
 
-from .contact import detect
+from .contact import detect, late_contacts_possible
 from .integrator import free_velocity, update
-from .solver.nlgs import solve
+from .solver.nlgs import _break_links, solve
 from .state import StepStats
+
+
+#: Most extra solves of one step for contacts closed by the solve itself (:func:`step`).
+LATE_PASSES = 3
 
 
 class SimulationError(RuntimeError):
@@ -48,11 +56,28 @@ def step(model, state) -> StepStats:
     """
     free_velocity(model, state)
     rebuilt = detect(model, state)
-    it, res = solve(model, state)
+    free = state.vel6.copy()
+    it, res = solve(model, state, break_links=False)
+    c = state.contacts_buf
+    late = 0
+    for _ in range(LATE_PASSES):
+        if not late_contacts_possible(model, state, free):
+            break
+        keys = c.key[:c.count].copy()
+        solved = state.vel6.copy()
+        state.vel6[:] = free
+        rebuilt |= detect(model, state, solved=solved)
+        if c.count == keys.size and np.array_equal(c.key[:c.count], keys):
+            state.vel6[:] = solved          # the same contacts (and impulses): keep it
+            break
+        late += int(np.setdiff1d(c.key[:c.count], keys, assume_unique=True).size)
+        more, res = solve(model, state, break_links=False)   # warm: this step's impulses
+        it += more
+    if model.n_links:
+        _break_links(model, state, model.options.dt)
     update(model, state)
-    n = state.contacts_buf.count
     stats = StepStats(iterations=it, residual=res, converged=res < model.options.tol,
-                      n_contacts=n, rebuilt=rebuilt)
+                      n_contacts=c.count, rebuilt=rebuilt, late_contacts=late)
     state.stats = stats
     return stats
 

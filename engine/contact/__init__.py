@@ -7,7 +7,8 @@ from __future__ import annotations
 import numpy as np
 
 from ..threads import numba_threads
-from .broadphase import build_pairs_ordered, build_pairs_parallel, cell_sort, max_displacement
+from .broadphase import (build_pairs_ordered, build_pairs_parallel, cell_sort, max_displacement,
+                         max_speed, max_speed_change)
 from .narrowphase import narrowphase, narrowphase_parallel, tangent_frame
 
 #: Fewest spheres for which ``threads > 1`` also runs the broadphase and the sphere–sphere
@@ -22,18 +23,36 @@ def _detect_threads(model) -> int:
     T = model.options.threads
     return T if T > 1 and model.n_spheres >= PARALLEL_DETECT_MIN_SPHERES else 1
 
-__all__ = ["detect", "rebuild_pairs", "tangent_frame"]
+__all__ = ["detect", "rebuild_pairs", "tangent_frame", "late_contacts_possible"]
 
 
-def rebuild_pairs(model, state) -> None:
-    """Rebuild the candidate sphere–sphere pairs (surface distance < alert + skin).
+def late_contacts_possible(model, state, free) -> bool:
+    """Whether the solve may have closed a pair that the free velocities ``free`` left open.
+
+    Such a pair had a gap above the alert distance at q_m, and its normal relative velocity
+    changed by more than gap / h: so some body's velocity changed by more than alert / (2 h)
+    (``state.vel6`` holds the solved velocities).  When no body's did, the contacts of the
+    step are complete and :func:`engine.step.step` skips the second look.
+    """
+    o = model.options
+    return 2.0 * o.dt * max_speed_change(state.vel6, free) > o.alert
+
+
+def rebuild_pairs(model, state, lookahead: float = 0.0) -> None:
+    """Rebuild the candidate sphere–sphere pairs (surface distance < alert + skin, or
+    < alert + 2 ``lookahead`` [m] when that is larger).
+
+    ``lookahead`` is h times the largest sphere speed of the step (:func:`detect`): two
+    spheres approaching each other can close up to 2 h v within the step, and with a fixed
+    margin fast spheres (h v > skin/2, an impact at a large time step) could pass through
+    each other unseen.
 
     The buffer ``state.pairs`` grows until every pair fits (none is dropped).  With
     ``Options.threads > 1`` (and enough spheres, :func:`_detect_threads`) the grid search runs
     on that many threads, with the same list as one thread.
     """
     o = model.options
-    margin = o.alert + o.skin
+    margin = o.alert + max(o.skin, 2.0 * float(lookahead))
     # NaN/Inf, or so far away (1e6 m) that the grid extent overflows: the run blew up
     bad = ~(np.abs(state.position[model.sphere_ids]) < 1e6).all(axis=1)
     if bad.any():
@@ -58,6 +77,7 @@ def rebuild_pairs(model, state) -> None:
         state.pairs = np.zeros((int(need * 1.3) + 64, 2), np.int32)
     state.n_pairs = n
     state.pairs_ref = state.position.copy()
+    state.pairs_margin = margin
     state.__dict__["_sphere_order"] = (state.pairs_ref, order)
 
 
@@ -72,13 +92,13 @@ def _sphere_order(model, state) -> np.ndarray:
     if state.pairs_ref is None or model.n_spheres < 2:
         return model.sphere_ids
     radius = model.body_radius[model.sphere_ids]
-    margin = model.options.alert + model.options.skin
+    margin = state.pairs_margin or (model.options.alert + model.options.skin)
     order = cell_sort(state.pairs_ref, model.sphere_ids, 2.0 * float(radius.max()) + margin)[3]
     state.__dict__["_sphere_order"] = (state.pairs_ref, order)
     return order
 
 
-def detect(model, state) -> bool:
+def detect(model, state, solved=None) -> bool:
     """Find the active contacts at the current configuration (stage 2 of :func:`engine.step`).
 
     Called when ``state.position`` holds the θ-predicted configuration
@@ -88,6 +108,11 @@ def detect(model, state) -> bool:
     ``Options.threads > 1`` the sphere–sphere pairs are tested on that many threads; the
     contacts and their order are those of one thread.
 
+    ``solved`` (``(nb, 6)`` velocities, or None): after a solve, a pair that these
+    velocities close within the step is active as well (the free velocities stay in
+    ``state.vel6``).  :func:`engine.step.step` calls it so when the solve changed some
+    velocity by more than the alert distance over the step (:func:`late_contacts_possible`).
+
     Returns
     -------
     bool
@@ -96,15 +121,23 @@ def detect(model, state) -> bool:
     o = model.options
     h = o.dt
     rebuilt = False
-    if state.pairs_ref is None or max_displacement(
-            state.position, state.pairs_ref, state.vel6, model.sphere_ids, h) > 0.5 * o.skin:
-        rebuild_pairs(model, state)
+    sph = model.sphere_ids
+    moved = (np.inf if state.pairs_ref is None
+             else max_displacement(state.position, state.pairs_ref, state.vel6, sph, h))
+    if solved is not None and moved <= 0.5 * o.skin:
+        moved = max_displacement(state.position, state.pairs_ref, solved, sph, h)
+    if moved > 0.5 * o.skin:
+        look = h * max_speed(state.vel6, sph)
+        if solved is not None:
+            look = max(look, h * max_speed(solved, sph))
+        rebuild_pairs(model, state, look)
         rebuilt = True
     c = state.contacts_buf
     spheres = _sphere_order(model, state)
     T = _detect_threads(model)
     while True:
-        args = (state.position, state.vel6, model.body_radius, model.body_kind,
+        args = (state.position, state.vel6, state.vel6 if solved is None else solved,
+                solved is not None, model.body_radius, model.body_kind,
                 model.body_group, model.body_axis, model.body_height, model.body_caps,
                 model.pair_law, model.law_param, state.pairs, state.n_pairs,
                 spheres, model.wall_ids, o.alert, h,

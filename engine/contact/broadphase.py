@@ -261,3 +261,29 @@ def max_displacement(pos, ref, vel6, ids, lookahead):
         if d > worst:
             worst = d
     return worst
+
+
+@njit(cache=True)
+def max_speed(vel6, ids):
+    """max over bodies ``ids`` of ‖v‖ (translational) [m/s]."""
+    worst = 0.0
+    for k in range(ids.shape[0]):
+        b = ids[k]
+        v = vel6[b, 0] ** 2 + vel6[b, 1] ** 2 + vel6[b, 2] ** 2
+        if v > worst:
+            worst = v
+    return np.sqrt(worst)
+
+
+@njit(cache=True)
+def max_speed_change(vel6, ref):
+    """max over every body of ‖v − v_ref‖ (translational) [m/s]."""
+    worst = 0.0
+    for b in range(vel6.shape[0]):
+        dx = vel6[b, 0] - ref[b, 0]
+        dy = vel6[b, 1] - ref[b, 1]
+        dz = vel6[b, 2] - ref[b, 2]
+        v = dx * dx + dy * dy + dz * dz
+        if v > worst:
+            worst = v
+    return np.sqrt(worst)

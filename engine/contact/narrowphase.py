@@ -7,6 +7,12 @@ which a compressive impulse pushes i); t and s complete a right-handed orthonorm
 A pair becomes an active contact when its gap g at the θ-predicted configuration is below
 the alert distance, or when the free relative velocity would close it within the step
 (g + h u_n < 0, the horizon of the Signorini condition u_n + max(g, 0)/h >= 0): nothing fast can tunnel through the alert band.
+
+With ``two`` set, a pair is also active when a second velocity field ``vel6b`` would bring it
+within the alert distance (g + h u_n < alert): :func:`engine.step.step` uses this after the
+solve, with the solved velocities, to find the contacts that the solve itself closed (a grain
+stopped under a falling one) and solve again.  The contacts the solve holds at
+g + h u_n = 0 stay active under that test, so a second look never drops them.
 """
 from __future__ import annotations
 
@@ -105,8 +111,8 @@ def _wall_gap(x, y, z, r, kind, px, py, pz, ax, ay, az, R, H, caps, sub):
 
 
 @njit(cache=True)
-def narrowphase(pos, vel6, radius, kind, group, axis, height, caps, pair_law, law_param,
-                pairs, n_pairs, sphere_ids, wall_ids, alert, h,
+def narrowphase(pos, vel6, vel6b, two, radius, kind, group, axis, height, caps, pair_law,
+                law_param, pairs, n_pairs, sphere_ids, wall_ids, alert, h,
                 o_i, o_j, o_sub, o_key, o_frame, o_gap, o_mu, o_ri, o_rj):
     """Active contacts at configuration ``pos`` with free velocities ``vel6``.
 
@@ -114,6 +120,9 @@ def narrowphase(pos, vel6, radius, kind, group, axis, height, caps, pair_law, la
     ----------
     pos : (nb, 3) [m] θ-predicted configuration q_i + (1-θ) h v_i.
     vel6 : (nb, 6) free velocities [m/s, rad/s] (for the closing-in-the-step test).
+    vel6b : (nb, 6), two : bool
+        With ``two``, a pair that ``vel6b`` brings within ``alert`` in the step is active
+        too.
     radius, kind, group, axis, height, caps : per-body model arrays.
     pair_law : (ng, ng) int16 ; law_param : (nlaw, 4) float64
     pairs : (cap, 2) int32 candidate sphere pairs, the first ``n_pairs`` valid.
@@ -129,18 +138,19 @@ def narrowphase(pos, vel6, radius, kind, group, axis, height, caps, pair_law, la
         how many of them, first in the buffers, are sphere–sphere.
     """
     cap = o_i.shape[0]
-    k = _pair_contacts(0, n_pairs, pos, vel6, radius, group, pair_law, law_param, pairs, alert, h,
-                       0, cap, o_i, o_j, o_sub, o_key, o_frame, o_gap, o_mu, o_ri, o_rj)
-    n_pair = k
-    k = _wall_contacts(k, pos, vel6, radius, kind, group, axis, height, caps, pair_law, law_param,
-                       sphere_ids, wall_ids, alert, h,
+    k = _pair_contacts(0, n_pairs, pos, vel6, vel6b, two, radius, group, pair_law, law_param,
+                       pairs, alert, h, 0, cap,
                        o_i, o_j, o_sub, o_key, o_frame, o_gap, o_mu, o_ri, o_rj)
+    n_pair = k
+    k = _wall_range(0, sphere_ids.shape[0], k, cap, pos, vel6, vel6b, two, radius, kind, group,
+                    axis, height, caps, pair_law, law_param, sphere_ids, wall_ids, alert, h,
+                    o_i, o_j, o_sub, o_key, o_frame, o_gap, o_mu, o_ri, o_rj)
     return k, n_pair
 
 
 @njit(cache=True, inline="always")
-def _pair_contacts(m0, m1, pos, vel6, radius, group, pair_law, law_param, pairs, alert, h,
-                   k0, k1, o_i, o_j, o_sub, o_key, o_frame, o_gap, o_mu, o_ri, o_rj):
+def _pair_contacts(m0, m1, pos, vel6, vel6b, two, radius, group, pair_law, law_param, pairs,
+                   alert, h, k0, k1, o_i, o_j, o_sub, o_key, o_frame, o_gap, o_mu, o_ri, o_rj):
     """The active sphere–sphere contacts of the candidate pairs ``pairs[m0:m1]``, written in
     that order to rows ``k0:k1`` of the output buffers; returns the row after the last one
     found (possibly beyond ``k1``: the contacts past it are counted, not written)."""
@@ -161,7 +171,12 @@ def _pair_contacts(m0, m1, pos, vel6, radius, group, pair_law, law_param, pairs,
             un = (dx * (vel6[i, 0] - vel6[j, 0]) + dy * (vel6[i, 1] - vel6[j, 1])
                   + dz * (vel6[i, 2] - vel6[j, 2])) * inv
             if gap + h * un > 0.0:
-                continue
+                if not two:
+                    continue
+                un = (dx * (vel6b[i, 0] - vel6b[j, 0]) + dy * (vel6b[i, 1] - vel6b[j, 1])
+                      + dz * (vel6b[i, 2] - vel6b[j, 2])) * inv
+                if gap + h * un >= alert:
+                    continue
         if dist > 1e-300:
             inv = 1.0 / dist
             nx = dx * inv
@@ -176,22 +191,13 @@ def _pair_contacts(m0, m1, pos, vel6, radius, group, pair_law, law_param, pairs,
     return k
 
 
-@njit(cache=True)
-def _wall_contacts(k, pos, vel6, radius, kind, group, axis, height, caps, pair_law, law_param,
-                   sphere_ids, wall_ids, alert, h,
-                   o_i, o_j, o_sub, o_key, o_frame, o_gap, o_mu, o_ri, o_rj):
-    """The active sphere–wall contacts, written from row ``k`` on; returns the row after the
-    last one found (possibly beyond the capacity: counted, not written)."""
-    return _wall_range(0, sphere_ids.shape[0], k, o_i.shape[0], pos, vel6, radius, kind, group,
-                       axis, height, caps, pair_law, law_param, sphere_ids, wall_ids, alert, h,
-                       o_i, o_j, o_sub, o_key, o_frame, o_gap, o_mu, o_ri, o_rj)
-
-
 @njit(cache=True, inline="always")
-def _wall_range(a0, a1, k, cap, pos, vel6, radius, kind, group, axis, height, caps, pair_law,
-                law_param, sphere_ids, wall_ids, alert, h,
+def _wall_range(a0, a1, k, cap, pos, vel6, vel6b, two, radius, kind, group, axis, height, caps,
+                pair_law, law_param, sphere_ids, wall_ids, alert, h,
                 o_i, o_j, o_sub, o_key, o_frame, o_gap, o_mu, o_ri, o_rj):
-    """:func:`_wall_contacts` of the spheres ``sphere_ids[a0:a1]``, written to rows ``k:cap``."""
+    """The active sphere–wall contacts of the spheres ``sphere_ids[a0:a1]``, written to rows
+    ``k:cap``; returns the row after the last one found (possibly beyond ``cap``: counted,
+    not written)."""
     nb = pos.shape[0]
     for a in range(a0, a1):
         i = sphere_ids[a]
@@ -216,7 +222,12 @@ def _wall_range(a0, a1, k, cap, pos, vel6, radius, kind, group, axis, height, ca
                     un = (nx * (vel6[i, 0] - vel6[w, 0]) + ny * (vel6[i, 1] - vel6[w, 1])
                           + nz * (vel6[i, 2] - vel6[w, 2]))
                     if gap + h * un > 0.0:
-                        continue
+                        if not two:
+                            continue
+                        un = (nx * (vel6b[i, 0] - vel6b[w, 0]) + ny * (vel6b[i, 1] - vel6b[w, 1])
+                              + nz * (vel6b[i, 2] - vel6b[w, 2]))
+                        if gap + h * un >= alert:
+                            continue
                 _emit(k, cap, i, w, sub, nb, nx, ny, nz, gap, law_param[law, 0], r, 0.0,
                       o_i, o_j, o_sub, o_key, o_frame, o_gap, o_mu, o_ri, o_rj)
                 k += 1
@@ -224,8 +235,8 @@ def _wall_range(a0, a1, k, cap, pos, vel6, radius, kind, group, axis, height, ca
 
 
 @njit(cache=True, parallel=True)
-def narrowphase_parallel(T, pos, vel6, radius, kind, group, axis, height, caps, pair_law,
-                         law_param, pairs, n_pairs, sphere_ids, wall_ids, alert, h,
+def narrowphase_parallel(T, pos, vel6, vel6b, two, radius, kind, group, axis, height, caps,
+                         pair_law, law_param, pairs, n_pairs, sphere_ids, wall_ids, alert, h,
                          o_i, o_j, o_sub, o_key, o_frame, o_gap, o_mu, o_ri, o_rj):
     """:func:`narrowphase` with the sphere–sphere pairs on ``T`` threads; same output.
 
@@ -246,8 +257,8 @@ def narrowphase_parallel(T, pos, vel6, radius, kind, group, axis, height, caps, 
     counts = np.zeros(T, np.int64)
     chunk_regions(n_pairs, cap, T, bounds, base)
     for c in prange(T):
-        counts[c] = _pair_contacts(bounds[c], bounds[c + 1], pos, vel6, radius, group, pair_law,
-                                   law_param, pairs, alert, h, base[c], base[c + 1], o_i, o_j,
+        counts[c] = _pair_contacts(bounds[c], bounds[c + 1], pos, vel6, vel6b, two, radius,
+                                   group, pair_law, law_param, pairs, alert, h, base[c], base[c + 1], o_i, o_j,
                                    o_sub, o_key, o_frame, o_gap, o_mu, o_ri, o_rj) - base[c]
     n_pair, need = chunks_needed(base, counts)
     if need > cap:
@@ -260,7 +271,7 @@ def narrowphase_parallel(T, pos, vel6, radius, kind, group, axis, height, caps, 
         base[c] += n_pair
     for c in prange(T):
         counts[c] = _wall_range(bounds[c], bounds[c + 1], base[c], base[c + 1], pos, vel6,
-                                radius, kind, group, axis, height, caps, pair_law, law_param,
+                                vel6b, two, radius, kind, group, axis, height, caps, pair_law, law_param,
                                 sphere_ids, wall_ids, alert, h,
                                 o_i, o_j, o_sub, o_key, o_frame, o_gap, o_mu, o_ri, o_rj) - base[c]
     n_wall, need = chunks_needed(base, counts)

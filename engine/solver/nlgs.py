@@ -583,11 +583,13 @@ def _local_index(b, loc, perm, k):
 LAYOUT_MIN_BODIES = 4096
 
 
-def solve(model, state):
+def solve(model, state, break_links: bool = True):
     """NLGS stage of :func:`engine.step` on the contacts found by :func:`engine.contact.detect`.
 
     Warm-starts from the previous step, sweeps to ``tol``/``max_iter``, updates
-    ``state.vel6`` in place and stores the impulses for the next warm start.
+    ``state.vel6`` in place and stores the impulses for the next warm start.  Brittle links
+    over their maximum tension then break (:func:`break_links`), unless ``break_links`` is
+    False (:func:`engine.step.step` breaks them once, after its last solve of the step).
 
     With ``options.threads == 1`` (the default) the sweep is the serial Gauss–Seidel of
     :func:`iterate`; scenes of :data:`LAYOUT_MIN_BODIES` bodies or more run it on a local
@@ -622,7 +624,7 @@ def solve(model, state):
         it, res = _solve_on(model, state, li, lj, model.body_dyn[p], vel, pos, lli, llj, threads)
         state.vel6[p] = vel
     state.warm_key, state.warm_impulse = warm_store(n, c.key, c.frame, c.impulse, model.n_bodies)
-    if nl:
+    if nl and break_links:
         _break_links(model, state, o.dt)
     return int(it), float(res)
 

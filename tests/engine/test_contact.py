@@ -71,3 +71,65 @@ def test_cylinder_caps_are_optional():
             assert state.position[1, 2] == pytest.approx(H - r, abs=1e-12)
         else:
             assert state.position[1, 2] > H + 1e-3  # open top: it leaves
+
+
+# -- contacts a step can close at a large time step -------------------------------------------
+R_LATE = 1e-3
+
+
+def test_a_fast_sphere_does_not_pass_through_one_beyond_the_skin():
+    """A sphere at 10 m/s towards one at rest 6 mm away, h = 1 ms, θ = 0.5: at the predicted
+    configuration (5 mm on) the gap is 1 mm, beyond the fixed candidate margin alert + skin
+    = 0.6 mm, and the free velocity would close 10 mm.  The candidate list is then built
+    with a margin of 2 h v_max, the pair is a contact, and the Signorini condition
+    u_n + g/h >= 0 lets the gap close exactly: after the step the relative velocity is
+    g/h = 1 m/s, the momentum is conserved and the spheres do not overlap; the next step's
+    plastic impact leaves both at 5 m/s."""
+    s = Scene()
+    s.add_spheres(np.array([[0.0, 0.0, 0.0], [2 * R_LATE + 6e-3, 0.0, 0.0]]), R_LATE,
+                  density=2650.0, velocities=np.array([[10.0, 0, 0], [0, 0, 0]]))
+    s.interact("sand", "sand", laws.Coulomb(mu=0.3))
+    model, state = s.compile(dt=1e-3, theta=0.5, tol=1e-12, max_iter=100)
+    st = step(model, state)
+    assert st.n_contacts == 1
+    v = state.vel6[:2, 0]
+    assert v == pytest.approx([5.5, 4.5], rel=1e-9)
+    assert np.linalg.norm(state.position[1] - state.position[0]) >= 2 * R_LATE * (1 - 1e-9)
+    step(model, state)
+    assert state.vel6[:2, 0] == pytest.approx([5.0, 5.0], rel=1e-9)
+    assert np.linalg.norm(state.position[1] - state.position[0]) >= 2 * R_LATE * (1 - 1e-9)
+
+
+def test_a_grain_stopped_by_the_floor_stops_the_one_falling_on_it():
+    """Two spheres falling together at 1 m/s, 0.3 mm apart (beyond the 0.1 mm alert
+    distance), the lower one 0.55 mm above the floor, h = 1 ms, θ = 0.5.  Their free
+    velocities are equal, so the first narrowphase sees no contact between them; the solve
+    stops the lower one on the floor (u_n + g/h >= 0 lets it close its 0.05 mm predicted
+    gap).  The step then finds the pair that the solved velocities close (one late
+    contact), solves again, and the upper sphere closes its gap to the lower one exactly
+    at the next predicted configuration.  Without the second look it would sink 0.7 mm into
+    the lower one and stay there (an overlap is held, not pushed out)."""
+    gap0, lift = 3e-4, 5.5e-4
+    z = np.array([R_LATE + lift, 3 * R_LATE + lift + gap0])
+    s = Scene(gravity=(0, 0, -9.81))
+    s.add_spheres(np.column_stack([np.zeros(2), np.zeros(2), z]), R_LATE, density=2650.0,
+                  velocities=np.array([[0, 0, -1.0], [0, 0, -1.0]]))
+    s.add_plane(point=(0, 0, 0), normal=(0, 0, 1), group="wall")
+    s.interact("sand", "sand", laws.Coulomb(mu=0.3))
+    s.interact("sand", "wall", laws.Coulomb(mu=0.3))
+    model, state = s.compile(dt=1e-3, theta=0.5, tol=1e-12, max_iter=200, alert=1e-4)
+    st = step(model, state)
+    assert st.late_contacts == 1 and st.n_contacts == 2 and st.converged
+    h, c = 1e-3, state.contacts_buf
+    v = state.vel6[:2, 2]
+    # each gap at the predicted configuration closes exactly: v = −g/h, relative for the pair
+    g_floor, g_pair = sorted(c.gap[:2], key=lambda g: abs(g - 5e-5))
+    assert v[0] == pytest.approx(-g_floor / h, rel=1e-9)
+    assert v[1] - v[0] == pytest.approx(-g_pair / h, rel=1e-9)
+    for _ in range(5):                                  # then both rest, touching
+        st = step(model, state)
+        assert st.late_contacts == 0
+    x = state.position[:2, 2]
+    assert x[0] == pytest.approx(R_LATE, abs=1e-12)
+    assert x[1] - x[0] == pytest.approx(2 * R_LATE, abs=1e-12)
+    assert state.vel6[:2, 2] == pytest.approx([0.0, 0.0], abs=1e-9)

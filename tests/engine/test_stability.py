@@ -98,7 +98,9 @@ def _assert_non_convergence_reported(model, summary, watch, caught):
     for n, st in watch.stats:
         assert st.converged == (st.residual < tol)
         if not st.converged:
-            assert st.iterations == cap  # it stopped because of the cap, not silently early
+            # it stopped because of the cap, not silently early (a step that solved again
+            # for late contacts counts the sweeps of every solve, the last one hitting it)
+            assert st.iterations == cap if st.late_contacts == 0 else st.iterations >= cap
             hit.append(n)
     assert summary.non_converged == hit
     warned = [c for c in caught if issubclass(c.category, NonConvergenceWarning)]

@@ -56,7 +56,10 @@ def step(model, state) -> StepStats:
     """
     free_velocity(model, state)
     rebuilt = detect(model, state)
-    free = state.vel6.copy()
+    free = state.__dict__.get("_free_vel")          # the free velocities, kept for a second look
+    if free is None or free.shape != state.vel6.shape:
+        free = state.__dict__["_free_vel"] = np.empty_like(state.vel6)
+    np.copyto(free, state.vel6)
     it, res = solve(model, state, break_links=False)
     c = state.contacts_buf
     late = 0

@@ -35,10 +35,11 @@ P = common.PARAMS
 
 
 def build(state_file: str, dt: float | None = None, anderson: int | None = None,
-          hot_sweeps: int = 0):
+          hot_sweeps: int = 0, tol: float | None = None):
     """Our Scene from a state file: spheres with their velocities and spins, open box.
-    ``dt`` and ``anderson`` override the common parameters' time step and the engine's
-    default acceleration depth; ``hot_sweeps``: :attr:`engine.model.Options.hot_sweeps`."""
+    ``dt``, ``tol`` and ``anderson`` override the common parameters' time step and NLGS
+    tolerance and the engine's default acceleration depth; ``hot_sweeps``:
+    :attr:`engine.model.Options.hot_sweeps`."""
     st = common.load_state(state_file)
     s = Scene(gravity=(0.0, 0.0, -P["gravity"]))
     s.add_spheres(st["position"], st["radius"], density=P["density"], group="sand",
@@ -50,7 +51,8 @@ def build(state_file: str, dt: float | None = None, anderson: int | None = None,
     extra = {} if anderson is None else dict(anderson=anderson)
     if hot_sweeps:
         extra["hot_sweeps"] = hot_sweeps
-    model, state = s.compile(dt=P["dt"] if dt is None else dt, theta=P["theta"], tol=P["tol"],
+    model, state = s.compile(dt=P["dt"] if dt is None else dt, theta=P["theta"],
+                             tol=P["tol"] if tol is None else tol,
                              max_iter=P["max_iter"], **extra)
     return st, model, state, time.perf_counter() - t0
 
@@ -150,7 +152,7 @@ def cmd_steps(a):
 
 def cmd_rest(a):
     warm_s = warm()
-    st, model, state, compile_s = build(a.state, a.dt, a.anderson, a.hot_sweeps)
+    st, model, state, compile_s = build(a.state, a.dt, a.anderson, a.hot_sweeps, a.tol)
     sph = model.sphere_ids
     rad = model.body_radius[sph]
     m, inertia = common.masses(rad, P["density"])
@@ -177,7 +179,13 @@ def cmd_rest(a):
             break
     wall = time.perf_counter() - t_all
     n = len(rec["wall_s"])
+    # static equilibrium at the end: the walls carry the pile's weight (1 at rest; the side
+    # walls' friction carries part of it, so this is all walls, not the floor alone)
+    from engine.analysis import wall_forces
+    weight = float(np.sum(m)) * P["gravity"]
+    walls_z = float(wall_forces(model, state)[:, 2].sum())
     _finish(a, st, model, state, rec, dict(
+        walls_vertical_force_over_weight=-walls_z / weight,
         mode="rest", state=Path(a.state).name, rest_ratio=a.rest_ratio, at_rest=at_rest,
         dt_s=model.options.dt, tol=model.options.tol, anderson=model.options.anderson,
         hot_sweeps=model.options.hot_sweeps,
@@ -185,7 +193,7 @@ def cmd_rest(a):
         cap_hit=not at_rest, kinetic_energy_peak_J=peak,
         kinetic_energy_peak_step=int(np.argmax(rec["kinetic_energy_J"])) + 1,
         warmup_s=warm_s, scene_compile_s=compile_s,
-        non_converged_steps=int(np.sum(np.asarray(rec["residual"]) >= P["tol"]))))
+        non_converged_steps=int(np.sum(np.asarray(rec["residual"]) >= model.options.tol))))
     print(f"ours rest: {'at rest' if at_rest else 'NOT at rest'} after {n} steps "
           f"({state.time:.4f} s simulated) in {wall:.1f} s")
 
@@ -211,6 +219,8 @@ def main():
     p.add_argument("--max-steps", type=int, default=200000)
     p.add_argument("--rest-ratio", type=float, default=1e-4)
     p.add_argument("--dt", type=float, default=None, help="time step [s] (default: the common one)")
+    p.add_argument("--tol", type=float, default=None,
+                   help="NLGS tolerance (default: the common one, 1e-4)")
     p.add_argument("--anderson", type=int, default=None,
                    help="NLGS Anderson depth (default: the engine's default)")
     p.add_argument("--hot-sweeps", type=int, default=0,

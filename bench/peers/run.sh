@@ -12,6 +12,9 @@
 #   PEERS_YADE_CAP_S=600, PEERS_OURS_REST_CAP_S=600   caps of the runs to rest
 #   PEERS_REST_DT_LARGE=5e-4 our second run to rest, at this larger time step (NSCD's
 #                            regime; the first uses the common 5e-5 s); empty: skipped
+#   PEERS_REST_TOL_LOOSE=1e-3 our third run to rest, at h = 5e-5 s with this NLGS
+#                            tolerance (docs/tradeoff.md: enough for a pile at rest; the
+#                            other runs use the common 1e-4); empty: skipped
 #   PEERS_REST_ANDERSON=0, PEERS_REST_HOT=2   NLGS of our runs to rest: Anderson depth and
 #                            re-sweeps of the hot contacts (docs/speed.md: the fastest
 #                            measured for this deposit; 4 and 0 were the default until
@@ -147,6 +150,12 @@ if ! skip yade; then
     run ours_rest_dt_large "$VPY" $HERE/ours.py rest --state "$WORK/init_state.json" \
         --cap-s "$REST_CAP" --dt "$DT_LARGE" --anderson "$AND" --hot-sweeps "$HOT" \
         --out "$WORK/ours_rest_dt_large.json"
+  fi
+  TOL_LOOSE=${PEERS_REST_TOL_LOOSE-1e-3}
+  if [[ -n "$TOL_LOOSE" ]]; then
+    run ours_rest_loose_tol "$VPY" $HERE/ours.py rest --state "$WORK/init_state.json" \
+        --cap-s "$REST_CAP" --tol "$TOL_LOOSE" --anderson "$AND" --hot-sweeps "$HOT" \
+        --out "$WORK/ours_rest_loose_tol.json"
   fi
   run yade_rest env PEERS_STATE="$WORK/init_state.json" PEERS_OUT="$WORK/yade_rest.json" \
       PEERS_CAP_S="$YADE_CAP" yade -n -j1 -x $HERE/yade_deposit.py

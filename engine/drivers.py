@@ -47,6 +47,11 @@ def drive_velocities(model, state, t: float) -> None:
             state.vel6[d.body, :3] = _vector(d.at(t), f"velocity drive on body {d.body} at t={t:g} s")
 
 
+class ConfinementError(RuntimeError):
+    """A free-surface confinement lost its sample: grains left the membrane and its radius
+    ran away (:class:`Confinement`'s ``max_growth``)."""
+
+
 class Confinement:
     """A pressure on the free surface of a cylindrical sample, applied to its outer particles
     (the paper's §3.3 procedure "which applies a confinement loading on free surface
@@ -66,12 +71,31 @@ class Confinement:
     center : (x, y) [m]       the vertical axis.
     cell : float [m]          target size of a cell (default the mean diameter, about one
                               surface particle per cell).
+    max_growth : float > 1 or None
+        :meth:`apply` raises :class:`ConfinementError` when the radius R exceeds this
+        factor times its value at the first :meth:`apply` (default 1.5; None: never).  An
+        escaped grain counts as a surface particle, so R and the membrane's total force run
+        away together: seen on samples of about 250 grains, where R grew 150-200 times and
+        the run went on to a meaningless end.  A sample that holds together bulges by a few
+        per cent.
     """
 
-    def __init__(self, pressure: float, ids, *, center=(0.0, 0.0), cell: float | None = None):
+    def __init__(self, pressure: float, ids, *, center=(0.0, 0.0), cell: float | None = None,
+                 max_growth: float | None = 1.5):
         p = float(pressure)
         if not (np.isfinite(p) and p >= 0):
             raise ValueError(f"pressure must be finite and >= 0 [Pa], got {pressure!r}")
+        if max_growth is not None:
+            try:
+                g = float(max_growth)
+            except (TypeError, ValueError):
+                g = float("nan")
+            if not (np.isfinite(g) and g > 1.0):
+                raise ValueError(f"max_growth must be a finite factor > 1 (or None), got "
+                                 f"{max_growth!r}")
+            max_growth = g
+        self.max_growth = max_growth
+        self.start_radius = None
         self.pressure = p
         self.ids = np.asarray(ids, dtype=np.int64)
         if self.ids.size == 0:
@@ -89,11 +113,17 @@ class Confinement:
         return np.hypot(dx, dy) + r, np.arctan2(dy, dx), (x[:, 2] - r).min(), (x[:, 2] + r).max()
 
     def apply(self, model, state) -> float:
-        """Recompute the surface particles and their loads; returns the loaded area [m²]."""
+        """Recompute the surface particles and their loads; returns the loaded area [m²].
+
+        Raises :class:`ConfinementError` (loads unchanged) when the radius has run away
+        (``max_growth``)."""
         rho, theta, z0, z1 = self.geometry(model, state)
         rad = model.body_radius[self.ids]
         cell = 2.0 * rad.mean() if self.cell is None else float(self.cell)
-        R = float(np.median(rho[rho > np.percentile(rho, 75)]))
+        outer = rho > np.percentile(rho, 75)
+        if not outer.any():             # a quarter or more tied at the largest radius
+            outer = rho >= np.percentile(rho, 75)
+        R = float(np.median(rho[outer]))
         n_sec = max(4, int(round(2 * np.pi * R / cell)))
         n_lay = max(1, int(round((z1 - z0) / cell)))
         z = state.position[self.ids, 2]
@@ -116,6 +146,13 @@ class Confinement:
         r_top = rad[top]
         w = r_top ** 2 / np.sum(r_top ** 2)
         R_surf = float(np.dot(w, rho[top]))
+        if self.start_radius is None:
+            self.start_radius = R_surf
+        elif self.max_growth is not None and not R_surf <= self.max_growth * self.start_radius:
+            raise ConfinementError(
+                f"the confinement radius grew from {1e3 * self.start_radius:.3g} mm to "
+                f"{1e3 * R_surf:.3g} mm (more than max_growth = {self.max_growth:g} times; "
+                f"grains left the free-surface membrane) at step {state.step}")
         area = 2 * np.pi * R_surf * (z1 - z0) * w
         f = self.pressure * area
         state.load[self.ids[self.surface]] = 0.0

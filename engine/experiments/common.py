@@ -10,6 +10,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from ..drivers import ConfinementError  # noqa: F401  (re-exported: engine.experiments)
 from ..step import NonConvergenceWarning, run
 
 __all__ = ["TestResult", "ConvergenceError", "inertial_rate", "check_scale"]
@@ -21,12 +22,6 @@ class ConvergenceError(RuntimeError):
     def __init__(self, message, result):
         super().__init__(message)
         self.result = result
-
-
-class ConfinementError(RuntimeError):
-    """The cylinder's free-surface confinement lost the sample: grains left the membrane and
-    its radius ran away (:data:`engine.experiments.triaxial.RADIUS_RUNAWAY`).  The history
-    file keeps what was recorded up to then."""
 
 
 @dataclass

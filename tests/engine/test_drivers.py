@@ -87,3 +87,55 @@ def test_time_dependent_velocity_drive_follows_the_theta_rule(theta):
     assert state.position[wall, 2] == pytest.approx(-1.0 + a * h * h * (n * (n - 1) / 2 + theta * n),
                                                     rel=1e-12)
     assert state.velocity[wall, 2] == pytest.approx(a * n * h, rel=1e-12)
+
+
+# -- free-surface confinement ---------------------------------------------------------------------
+def _ring(n=16, layers=3, r=1e-3, R=6e-3):
+    a = 2 * np.pi * np.arange(n) / n
+    pts = [(R * np.cos(t), R * np.sin(t), r + 2 * r * k) for k in range(layers) for t in a]
+    s = Scene()
+    ids = s.add_spheres(np.array(pts), r, density=2650.0)
+    s.interact("sand", "sand", laws.Coulomb(mu=0.3))
+    model, state = s.compile(dt=1e-4)
+    return model, state, ids
+
+
+def test_confinement_loads_the_surface_with_p_times_its_area_and_guards_its_radius():
+    """A ring of equal spheres: every sphere is a surface particle, the loads add up to
+    p 2π R H (R the outer radius, H the height) and point to the axis.  Moved out by 1.4x
+    the sample is still confined; by 1.6x (grains out of the membrane) ``apply`` raises
+    ConfinementError and leaves the loads as they were; ``max_growth=None`` never does."""
+    from engine.drivers import Confinement, ConfinementError
+
+    model, state, ids = _ring()
+    p, r = 1e4, 1e-3
+    conf = Confinement(p, ids, cell=2 * r)
+    conf.apply(model, state)
+    R, H = 6e-3 + r, 6 * r
+    assert conf.start_radius == pytest.approx(R, rel=1e-12) and conf.height == pytest.approx(H)
+    f = state.load[ids]
+    assert np.linalg.norm(f, axis=1).sum() == pytest.approx(p * 2 * np.pi * R * H, rel=1e-12)
+    radial = state.position[ids, :2] / np.linalg.norm(state.position[ids, :2], axis=1)[:, None]
+    assert np.einsum("ka,ka->k", f[:, :2], radial) == pytest.approx(-np.linalg.norm(f, axis=1))
+    start = state.position.copy()
+    state.position[ids, :2] = 1.4 * start[ids, :2]
+    conf.apply(model, state)                               # bulged: still confined
+    kept = state.load.copy()
+    state.position[ids, :2] = 1.6 * start[ids, :2]
+    with pytest.raises(ConfinementError, match=r"grew from 7 mm to 10\.6 mm .*max_growth = 1\.5"):
+        conf.apply(model, state)
+    assert np.array_equal(state.load, kept)
+    free = Confinement(p, ids, cell=2 * r, max_growth=None)
+    state.position[:] = start
+    free.apply(model, state)
+    state.position[ids, :2] = 3.0 * start[ids, :2]
+    free.apply(model, state)
+    assert free.radius == pytest.approx(3 * 6e-3 + r)
+
+
+@pytest.mark.parametrize("bad", [1.0, 0.5, float("nan"), "x"])
+def test_confinement_refuses_a_growth_limit_that_is_not_above_one(bad):
+    from engine.drivers import Confinement
+
+    with pytest.raises(ValueError, match="max_growth must be a finite factor > 1"):
+        Confinement(1e4, [0, 1], max_growth=bad)

@@ -29,6 +29,9 @@ class RelaxReport:
     non_converged : list of int   steps that hit max_iter.
     wire_kinetic_energy : float [J]  of the wire beads at the end (not in the criterion).
     history : (k, 2) array of (time [s], kinetic energy [J]) at each check.
+    top_body : int             the watched body with the most kinetic energy at the end
+    top_share : float          its share of the final kinetic energy
+    top_spin_share : float     the share of its own energy that is rotation
     """
 
     steps: int = 0
@@ -42,6 +45,9 @@ class RelaxReport:
     non_converged: list = field(default_factory=list)
     wire_kinetic_energy: float = 0.0
     history: np.ndarray = field(default_factory=lambda: np.zeros((0, 2)))
+    top_body: int = -1
+    top_share: float = 0.0
+    top_spin_share: float = 0.0
 
     def __str__(self):
         state = "at rest" if self.at_rest else "NOT at rest"
@@ -50,11 +56,34 @@ class RelaxReport:
              f"= {self.ratio:.2e} of its peak {self.peak_kinetic_energy:.3g} J")
         if self.wire_kinetic_energy:
             s += f" (wire beads: {self.wire_kinetic_energy:.3g} J)"
+        if not self.at_rest and self.top_body >= 0 and self.top_share >= 0.5:
+            s += (f"; body {self.top_body} holds {100 * self.top_share:.0f} % of it, "
+                  f"{100 * self.top_spin_share:.0f} % of that in rotation")
+            if self.top_spin_share >= 0.5:
+                s += (" (a point contact has no rolling or spinning friction: a grain can turn "
+                      "in place for good; watch other bodies with bodies=)")
         if self.non_converged:
             s += f"; {len(self.non_converged)} steps did not converge"
         if self.interrupted:
             s += "; interrupted"
         return s
+
+
+def _top_body(rep, model, state, bodies) -> None:
+    """Fill ``rep.top_*``: which watched body holds the most kinetic energy, and how."""
+    if bodies.size == 0:
+        return
+    v = state.vel6[bodies]
+    trans = 0.5 * model.body_mass[bodies] * np.einsum("ij,ij->i", v[:, :3], v[:, :3])
+    rot = 0.5 * model.body_inertia[bodies] * np.einsum("ij,ij->i", v[:, 3:], v[:, 3:])
+    e = trans + rot
+    total = float(e.sum())
+    if total <= 0.0:
+        return
+    k = int(np.argmax(e))
+    rep.top_body = int(bodies[k])
+    rep.top_share = float(e[k] / total)
+    rep.top_spin_share = float(rot[k] / e[k])
 
 
 def relax(model, state, *, ke_fraction: float = 1e-4, max_steps: int = 20000,
@@ -137,6 +166,7 @@ def relax(model, state, *, ke_fraction: float = 1e-4, max_steps: int = 20000,
             bar.close()
         rep.time = state.time - t0
         rep.wire_kinetic_energy = kinetic_energy(model, state, beads) if beads.size else 0.0
+        _top_body(rep, model, state, np.asarray(bodies))
         rep.history = np.asarray(hist).reshape(-1, 2)
     if not rep.at_rest and not rep.interrupted:
         warnings.warn(str(rep), RuntimeWarning, stacklevel=2)

@@ -273,3 +273,23 @@ def test_small_box_sample_that_overflows_its_first_mould():
     gap = d - s.sand_radii[:, None] - s.sand_radii[None]
     np.fill_diagonal(gap, np.inf)
     assert gap.min() > -1e-9 * s.sand_radii.min()
+
+
+def test_relax_names_a_grain_spinning_in_place():
+    """A grain on a frictional floor spinning about the vertical (the contact normal) keeps
+    its spin: a point contact has no spinning friction, so ω_z is conserved to rounding and
+    relax() cannot call the sample at rest.  Its report says which body holds the energy
+    and that it is rotation, instead of a bare 'NOT at rest'."""
+    r = 1e-3
+    sc = Scene(gravity=(0, 0, -G))
+    ids = sc.add_spheres(np.array([[0, 0, r], [5 * r, 0, r]]), r, density=2650.0,
+                         spins=np.array([[0, 0, 35.0], [0, 0, 0]]))
+    sc.add_plane(point=(0, 0, 0), normal=(0, 0, 1), group="wall")
+    sc.interact("sand", "sand", laws.Coulomb(mu=0.5))
+    sc.interact("sand", "wall", laws.Coulomb(mu=0.5))
+    model, state = sc.compile(dt=1e-4, tol=1e-8)
+    with pytest.warns(RuntimeWarning, match=r"body 0 holds 100 % of it, 100 % of that in "
+                                            r"rotation \(a point contact has no rolling"):
+        rep = relax(model, state, max_steps=200, progress=False)
+    assert not rep.at_rest and rep.top_body == ids[0]
+    assert state.vel6[ids[0], 5] == pytest.approx(35.0, rel=1e-12)

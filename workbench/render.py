@@ -12,8 +12,8 @@ toroidal stress map.
 Presets (``preset=``; ``**options`` listed with each builder)
 
 ``beads``  (:func:`add_beads`)
-    Every sphere at its radius, sand and wire beads coloured by kind (categorical colour
-    bar "bead kind"), walls translucent.
+    Every sphere at its radius, sand and wire beads coloured by kind (a legend box
+    "sand" / "wire"), walls translucent.
 ``wire``  (:func:`add_wire`)
     The wire's tension network: each link a tube whose radius and colour grow with its
     tension [N]; slack links (tension <= ``slack`` × max) thin and grey; broken links
@@ -136,7 +136,8 @@ def theme():
 
 
 def _bar(title: str, **kw) -> dict:
-    args = dict(title=title, vertical=True, n_labels=5, fmt="%.3g", color="black",
+    # the trailing newline lifts the title off the top label (they touched)
+    args = dict(title=title + "\n", vertical=True, n_labels=5, fmt="%.3g", color="black",
                 font_family="arial", title_font_size=14, label_font_size=12,
                 position_x=0.86, position_y=0.1, width=0.06, height=0.8)
     args.update(kw)
@@ -204,7 +205,7 @@ def _select(part, mask):
 def add_beads(pl, model, state, *, walls: bool = True, wall_opacity: float = 0.15,
               color_by: str = "kind", clim=None, cmap="viridis", cut=None) -> None:
     """Preset ``beads``: spheres coloured by ``color_by`` = ``"kind"`` (sand / wire,
-    categorical bar), ``"speed"`` [m/s] or ``"group"``; translucent walls.
+    legend box), ``"speed"`` [m/s] or ``"group"``; translucent walls.
 
     ``cut`` = (3,) direction: leave out the sand grains whose centre lies on that side of
     the plane through the scene centre normal to it (e.g. ``cut=(0, -1, 0)`` with the
@@ -221,9 +222,15 @@ def add_beads(pl, model, state, *, walls: bool = True, wall_opacity: float = 0.1
     if part.n_points:
         if color_by == "kind":
             _spheres(pl, part, "beads", scalars="kind", cmap=[SAND_COLOR, WIRE_COLOR],
-                     clim=(-0.5, 1.5), n_colors=2, show_scalar_bar=True,
-                     scalar_bar_args=_bar("bead kind", n_labels=0, height=0.25, position_y=0.6),
-                     annotations={meshes.BEAD_SAND: "sand", meshes.BEAD_WIRE: "wire"})
+                     clim=(-0.5, 1.5), n_colors=2, show_scalar_bar=False)
+            # a legend box, not an annotated bar: the bar's labels sat on its colours
+            kinds = set(np.unique(part.point_data["kind"]).tolist())
+            entries = [[name, col] for k, name, col in ((meshes.BEAD_SAND, "sand", SAND_COLOR),
+                                                       (meshes.BEAD_WIRE, "wire", WIRE_COLOR))
+                       if k in kinds]
+            pl.add_legend(entries, bcolor="white", border=False, face="circle",
+                          size=(0.13, 0.035 * (len(entries) + 1)), loc="upper right",
+                          name="kind_legend")
         elif color_by in ("speed", "group"):
             title = "speed [m/s]" if color_by == "speed" else "group"
             if clim is None:  # explicit: the point-Gaussian mapper's bar would show 0-1
@@ -452,8 +459,9 @@ def plotter(model, state, preset: str = "beads", *, camera="iso", window_size=WI
             set_camera(pl, camera, bounds=meshes.scene_bounds(model, state), zoom=zoom)
         text = title if title is not None else f"t = {float(state.time):.4g} s"
         if text:
-            pl.add_text(text, position="lower_left", font_size=10, color="black",
-                        name="title")
+            # a corner annotation ("lower_left") clips the first glyph at the window edge
+            pl.add_text(text, position=(0.015, 0.015), viewport=True, font_size=10,
+                        color="black", name="title")
     except Exception:
         pl.close()
         raise

@@ -119,6 +119,8 @@ def slope_deposit(scale: float = 0.02, *, wire: bool = True, wire_density: float
         raise ValueError(f"ke_fraction must be in (0, 1), got {ke_fraction!r}")
     if int(steps) < 1:
         raise ValueError(f"steps must be >= 1, got {steps!r}")
+    if int(record_every) < 1:
+        raise ValueError(f"record_every must be >= 1, got {record_every!r}")
     law = (laws.ElasticWire(stiffness=1.0) if wire_law is None else wire_law) if wire else None
     sample = slope_sample(scale, wire=wire, wire_density=wire_density, seed=seed)
     R = sample.container.radius

@@ -122,10 +122,23 @@ def test_slope_deposit(tmp_path):
     (slope_deposit, dict(threads=0), "threads"),
     (cylinder_triaxial, dict(compaction_mu=0.0), "compaction_mu"),
     (box_triaxial, dict(compaction_mu=-0.1), "compaction_mu"),
+    (slope_deposit, dict(record_every=0), "record_every"),
+    (box_triaxial, dict(scale=0.02, frames=-1), "frames must be an integer >= 0"),
 ])
 def test_bad_input(fn, kw, field, tmp_path):
     with pytest.raises(ValueError, match=field):
         fn(history=str(tmp_path / "x.h5"), progress=False, **kw)
+
+
+def test_particle_frames_fall_on_records(tmp_path):
+    """frames=6 with a record every 10 steps: each frame is written with a record (every 10
+    steps; a frame between records failed with a KeyError before)."""
+    from engine.io import read_history as rh
+
+    r = box_triaxial(0.02, axial_strain=0.002, frames=6, record_every=10, iso_max_steps=60,
+                     history=str(tmp_path / "b.h5"), progress=False, max_nonconverged=1.0)
+    h = rh(r.history)
+    assert h.n_frames >= 3 and np.all(np.asarray(h.frame_step) % 10 == 0)
 
 
 def test_compaction_friction_holds_in_the_isotropic_stage_only(monkeypatch, tmp_path):

@@ -9,7 +9,7 @@ import numpy as np
 from ..threads import numba_threads
 from .broadphase import (build_pairs_ordered, build_pairs_parallel, cell_sort, max_displacement,
                          max_speed, max_speed_change)
-from .narrowphase import narrowphase, narrowphase_parallel, tangent_frame
+from .narrowphase import late_pairs_exist, narrowphase, narrowphase_parallel, tangent_frame
 
 #: Fewest spheres for which ``threads > 1`` also runs the broadphase and the sphere–sphere
 #: narrowphase on several threads (below it, one thread: the threads' start-up costs more
@@ -29,13 +29,24 @@ __all__ = ["detect", "rebuild_pairs", "tangent_frame", "late_contacts_possible"]
 def late_contacts_possible(model, state, free) -> bool:
     """Whether the solve may have closed a pair that the free velocities ``free`` left open.
 
-    Such a pair had a gap above the alert distance at q_m, and its normal relative velocity
-    changed by more than gap / h: so some body's velocity changed by more than alert / (2 h)
-    (``state.vel6`` holds the solved velocities).  When no body's did, the contacts of the
-    step are complete and :func:`engine.step.step` skips the second look.
+    ``state.vel6`` holds the solved velocities.  First a global bound: when no body's
+    velocity changed by more than alert / (2 h), :func:`engine.step.step` skips the second
+    look (a pair it could miss then ends the step overlapping by less than the alert
+    distance, and is a contact the next step).  Otherwise the candidate pairs of the bodies
+    that changed are tested exactly (:func:`narrowphase.late_pairs_exist`): whether the
+    solved velocities close a pair that the free ones left open.
     """
     o = model.options
-    return 2.0 * o.dt * max_speed_change(state.vel6, free) > o.alert
+    if not 2.0 * o.dt * max_speed_change(state.vel6, free) > o.alert:
+        return False
+    if state.pairs_ref is None or max_displacement(
+            state.position, state.pairs_ref, state.vel6, model.sphere_ids, o.dt) > 0.5 * o.skin:
+        return True          # the candidate list does not cover the solved motion: look
+    return bool(late_pairs_exist(state.position, free, state.vel6, model.body_radius,
+                                 model.body_kind, model.body_group, model.body_axis,
+                                 model.body_height, model.body_caps, model.pair_law,
+                                 state.pairs, state.n_pairs, model.sphere_ids, model.wall_ids,
+                                 o.alert, o.dt))
 
 
 def rebuild_pairs(model, state, lookahead: float = 0.0) -> None:

@@ -8,7 +8,7 @@ import numpy as np
 
 from ..threads import numba_threads
 from .broadphase import (build_pairs_ordered, build_pairs_parallel, cell_sort, max_displacement,
-                         max_speed, max_speed_change)
+                         max_speed)
 from .narrowphase import late_pairs_exist, narrowphase, narrowphase_parallel, tangent_frame
 
 #: Fewest spheres for which ``threads > 1`` also runs the broadphase and the sphere–sphere
@@ -37,16 +37,15 @@ def late_contacts_possible(model, state, free) -> bool:
     solved velocities close a pair that the free ones left open.
     """
     o = model.options
-    if not 2.0 * o.dt * max_speed_change(state.vel6, free) > o.alert:
-        return False
-    if state.pairs_ref is None or max_displacement(
-            state.position, state.pairs_ref, state.vel6, model.sphere_ids, o.dt) > 0.5 * o.skin:
-        return True          # the candidate list does not cover the solved motion: look
-    return bool(late_pairs_exist(state.position, free, state.vel6, model.body_radius,
-                                 model.body_kind, model.body_group, model.body_axis,
-                                 model.body_height, model.body_caps, model.pair_law,
-                                 state.pairs, state.n_pairs, model.sphere_ids, model.wall_ids,
-                                 o.alert, o.dt))
+    found = late_pairs_exist(state.position, free, state.vel6, model.body_radius,
+                             model.body_kind, model.body_group, model.body_axis,
+                             model.body_height, model.body_caps, model.pair_law, state.pairs,
+                             state.n_pairs, model.sphere_ids, model.wall_ids, o.alert, o.dt)
+    if found != 1:
+        return found == 2
+    # nothing found among the candidates, but do they cover the solved motion?
+    return state.pairs_ref is None or max_displacement(
+        state.position, state.pairs_ref, state.vel6, model.sphere_ids, o.dt) > 0.5 * o.skin
 
 
 def rebuild_pairs(model, state, lookahead: float = 0.0) -> None:
@@ -120,9 +119,9 @@ def detect(model, state, solved=None) -> bool:
     contacts and their order are those of one thread.
 
     ``solved`` (``(nb, 6)`` velocities, or None): after a solve, a pair that these
-    velocities close within the step is active as well (the free velocities stay in
-    ``state.vel6``).  :func:`engine.step.step` calls it so when the solve changed some
-    velocity by more than the alert distance over the step (:func:`late_contacts_possible`).
+    velocities bring within the alert distance in the step is active as well (the free
+    velocities stay in ``state.vel6``).  :func:`engine.step.step` calls it so when
+    :func:`late_contacts_possible` says the solve may have closed a new pair.
 
     Returns
     -------

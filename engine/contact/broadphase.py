@@ -274,16 +274,3 @@ def max_speed(vel6, ids):
             worst = v
     return np.sqrt(worst)
 
-
-@njit(cache=True)
-def max_speed_change(vel6, ref):
-    """max over every body of ‖v − v_ref‖ (translational) [m/s]."""
-    worst = 0.0
-    for b in range(vel6.shape[0]):
-        dx = vel6[b, 0] - ref[b, 0]
-        dy = vel6[b, 1] - ref[b, 1]
-        dz = vel6[b, 2] - ref[b, 2]
-        v = dx * dx + dy * dy + dz * dz
-        if v > worst:
-            worst = v
-    return np.sqrt(worst)

@@ -306,12 +306,12 @@ def _compact(k, base, counts, o_i, o_j, o_sub, o_key, o_frame, o_gap, o_mu, o_ri
 @njit(cache=True)
 def late_pairs_exist(pos, free, solved, radius, kind, group, axis, height, caps, pair_law,
                      pairs, n_pairs, sphere_ids, wall_ids, alert, h):
-    """Whether a candidate pair that is not a contact of the step (gap above ``alert`` and not
-    closed by the free velocities ``free``) is closed by the solved velocities ``solved``
-    (g + h u_n < 0).  Only pairs with a body whose velocity changed by more than
-    alert / (2 h) are tested: a cheap test that lets :func:`engine.step.step` skip its second
-    look when the solve closed nothing new (a confined sample's surface grains change
-    velocity by ~1 m/s every step, stopped by their contacts)."""
+    """0 when no body's velocity changed by more than alert / (2 h) from ``free`` to
+    ``solved``; else 2 when a candidate pair of such a body that is not a contact of the step
+    (gap above ``alert``, not closed by the free velocities) is closed by the solved ones
+    (g + h u_n < 0), and 1 when none is.  A cheap test that lets :func:`engine.step.step`
+    skip its second look when the solve closed nothing new (a confined sample's surface
+    grains change velocity by ~1 m/s every step, stopped by their contacts)."""
     nb = pos.shape[0]
     lim = (0.5 * alert / h) ** 2
     flag = np.zeros(nb, np.bool_)
@@ -324,7 +324,7 @@ def late_pairs_exist(pos, free, solved, radius, kind, group, axis, height, caps,
             flag[b] = True
             any_flag = True
     if not any_flag:
-        return False
+        return 0
     for m in range(n_pairs):
         i = pairs[m, 0]
         j = pairs[m, 1]
@@ -345,7 +345,7 @@ def late_pairs_exist(pos, free, solved, radius, kind, group, axis, height, caps,
         us = (dx * (solved[i, 0] - solved[j, 0]) + dy * (solved[i, 1] - solved[j, 1])
               + dz * (solved[i, 2] - solved[j, 2])) * inv
         if gap + h * us < 0.0:
-            return True
+            return 2
     for a in range(sphere_ids.shape[0]):
         i = sphere_ids[a]
         for b in range(wall_ids.shape[0]):
@@ -367,5 +367,5 @@ def late_pairs_exist(pos, free, solved, radius, kind, group, axis, height, caps,
                 us = (nx * (solved[i, 0] - solved[w, 0]) + ny * (solved[i, 1] - solved[w, 1])
                       + nz * (solved[i, 2] - solved[w, 2]))
                 if gap + h * us < 0.0:
-                    return True
-    return False
+                    return 2
+    return 1

@@ -155,7 +155,9 @@ def slope_deposit(scale: float = 0.02, *, wire: bool = True, wire_density: float
         while stages.steps < steps:
             if not stages.run(min(record_every, steps - stages.steps)):
                 break
-            ke = kinetic_energy(model, state, np.asarray(sand))
+            # grains that rolled off the floor's edge fall for good: not in the criterion
+            on_floor = np.asarray(sand)[state.position[sand, 2] >= 0.0]
+            ke = kinetic_energy(model, state, on_floor)
             peak = max(peak, ke)
             if stages.steps >= 10 * record_every and peak > 0 and ke <= ke_fraction * peak:
                 at_rest = True
@@ -183,6 +185,11 @@ def slope_deposit(scale: float = 0.02, *, wire: bool = True, wire_density: float
         sec = ((np.arctan2(x[:, 1], x[:, 0]) + np.pi) / (2 * np.pi) * 8).astype(int) % 8
         sector_h = np.full((len(prof.r), 8), np.nan)
         np.fmax.at(sector_h, (rb, sec), x[:, 2] + model.body_radius[hp] - lift)
+    lost = int(np.count_nonzero(state.position[ids, 2] < 0.0))
+    if lost:
+        warnings.warn(f"slope_deposit: {lost} particles rolled off the floor's edge "
+                      f"(floor_extent = {floor_extent:g} sample radii) and fell; they are left "
+                      f"out of the rest criterion and the profile", RuntimeWarning, stacklevel=2)
     c = state.contacts
     on_j, on_i = np.isin(c.j, rubber), np.isin(c.i, rubber)
     fz = float(-c.force[on_j & ~on_i, 2].sum() + c.force[on_i & ~on_j, 2].sum())
@@ -207,5 +214,5 @@ def slope_deposit(scale: float = 0.02, *, wire: bool = True, wire_density: float
                     mu_wire=mu_wire, seed=seed,
                     n_sand=int(sample.sand_radii.size), n_beads=sample.n_beads,
                     friction_angle_deg=math.degrees(math.atan(mu)),
-                    profile_error=profile_error))
+                    profile_error=profile_error, lost_particles=lost))
     return finish(res, stages, max_nonconverged)

@@ -9,11 +9,11 @@ The order of one step (each stage a public function of ``(model, state)``, testa
    half the skin) and narrowphase at q_m: active contacts, gaps, local frames;
 3. :func:`engine.solver.nlgs.solve` — warm start from the previous step's impulses, NLGS
    sweeps on Signorini + Coulomb (Eq. 5-6) until the Quad residual is below ``tol`` or
-   ``max_iter``; the body velocities become v_{i+1}.  If the solve changed a velocity by
-   more than the alert distance over the step, the narrowphase looks again with the solved
-   velocities: a pair they close (a grain stopped under a falling one, whose free velocities
-   were equal) is added and the step solved again from the impulses found, until the
-   contacts no longer change or :data:`LATE_PASSES` times;
+   ``max_iter``; the body velocities become v_{i+1}.  If the solved velocities close a
+   candidate pair that the free ones left open (a grain stopped under a falling one, whose
+   free velocities were equal; :func:`engine.contact.late_contacts_possible`), the
+   narrowphase looks again with them, the pair is added and the step solved again from the
+   impulses found, until the contacts no longer change or :data:`LATE_PASSES` times;
 4. :func:`engine.integrator.update` — q_{i+1} = q_m + θ h v_{i+1}; time advances by h.
 
 :func:`run` then calls every writer whose trigger fires (writers never modify the state).

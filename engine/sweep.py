@@ -162,6 +162,7 @@ def scalars_of(result) -> dict:
     else:                                                     # slope deposit
         out.update(max_slope_deg=result.max_slope_deg, at_rest=bool(result.at_rest),
                    floor_force=result.floor_force, weight=result.weight,
+                   lost_particles=result.params.get("lost_particles"),
                    n_sand=result.params.get("n_sand"), n_beads=result.params.get("n_beads"))
         if result.wire_before is not None:
             out.update(tortuosity_before=result.wire_before.tortuosity,

@@ -98,6 +98,9 @@ def test_slope_deposit(tmp_path):
                       progress=False)
     assert r.at_rest, str(r)
     assert r.floor_force == pytest.approx(r.weight, rel=0.02)
+    # the floor carries the weight: no grain fell off its edge, and a sweep table says so
+    from engine.sweep import scalars_of
+    assert r.params["lost_particles"] == 0 and scalars_of(r)["lost_particles"] == 0
     # the heap's slope stays below the sand's friction angle (atan 0.5 = 26.6°) + 5°
     assert r.max_slope_deg < r.params["friction_angle_deg"] + 5
     # axisymmetric within noise: the heap's centre of mass stays on the axis (within a

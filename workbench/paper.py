@@ -439,9 +439,14 @@ def _fig11(runs, seeds):
 
 def _fig13c(runs, seeds):
     """Fig. 13c on the cylinder runs (k = 1 N) of several seeds: (verdict or None, text).
+
     Each run's slab profile (``torus_slab_equivalent``, :meth:`ToroidalMap.slab_equivalent`)
-    is one reading; their mean decides, and each seed's own maximum is listed."""
-    profs, where, zc, frac_cell, strain = [], [], None, None, None
+    is one reading.  Per seed, the contrast c = (m − o) / (m + o) of the mean slab σ_w^eq
+    in the middle third of the height (m: slab centres in [H/3, 2H/3]) against the other
+    slabs (o); the claim needs the mean of c > 0 beyond 2 standard errors (the rule of
+    Fig. 11c and 14), so that a maximum one seed shows and the next does not is not called a
+    result.  The text also gives the largest slab of the mean profile and of each seed."""
+    profs, where, zc, frac_cell, strain, contrast = [], [], None, None, None, []
     for sd, t in zip(seeds, runs):
         if t is None or "torus_slab_equivalent" not in t:
             continue
@@ -451,6 +456,10 @@ def _fig13c(runs, seeds):
         prof = np.asarray(t["torus_slab_equivalent"], float)
         profs.append(prof)
         where.append(f"seed {sd}: {zc[int(np.argmax(prof))]:.2f}")
+        mid = (zc >= 1 / 3) & (zc <= 2 / 3)
+        m, o = float(prof[mid].mean()), float(prof[~mid].mean())
+        if m + o > 0:
+            contrast.append((m - o) / (m + o))
         if frac_cell is None:
             eq = np.asarray(t["torus_equivalent"], float)
             if np.any(np.isfinite(eq)):
@@ -460,14 +469,18 @@ def _fig13c(runs, seeds):
         return None, "runs missing"
     mean = np.mean(profs, axis=0)
     frac = float(zc[int(np.argmax(mean))])
-    text = (f"largest slab σ_w^eq of the mean profile over {len(profs)} seeds at z/H = "
-            f"{frac:.2f} (ε = {strain:.0%}, "
-            f"{mean.size} slabs; mean profile bottom to top "
-            + ", ".join(f"{v:.0f}" for v in mean) + " Pa); each seed's largest slab at z/H "
-            + "; ".join(where))
+    n = len(contrast)
+    cm = float(np.mean(contrast)) if n else float("nan")
+    csd = float(np.std(contrast, ddof=1)) if n > 1 else float("nan")
+    text = (f"mid-height third against the rest, contrast (m − o)/(m + o) of the mean slab "
+            f"σ_w^eq: {cm:+.2f} ± {csd:.2f} over {n} seeds (per seed "
+            + ", ".join(f"{v:+.2f}" for v in contrast) + f"; ε = {strain:.0%}, "
+            f"{mean.size} slabs); largest slab of the mean profile at z/H = {frac:.2f} "
+            "(bottom to top " + ", ".join(f"{v:.0f}" for v in mean) + " Pa); each seed's "
+            "largest slab at z/H " + "; ".join(where))
     if frac_cell is not None:
         text += f"; the largest single cell of seed {frac_cell[0]} at z/H = {frac_cell[1]:.2f}"
-    return 1 / 3 <= frac <= 2 / 3, text
+    return _significant(cm, csd, n), text
 
 
 def evaluate(curves: dict, rows: dict, scale: Scale) -> list[Claim]:
@@ -599,9 +612,10 @@ def evaluate(curves: dict, rows: dict, scale: Scale) -> list[Claim]:
                            scale.fig14_seeds)
     C.append(Claim("fig13c", "Fig. 13", "the wire equivalent stress is largest in the "
                    "mid-height dilatancy plane", "toroidal map maximum in the median plane",
-                   ours_c, "the slab (horizontal layer of the toroidal map) with the largest "
-                   "σ_w^eq, on the mean of the seeds' slab profiles, lies in the middle third "
-                   "of the height", _verdict(ok_c),
+                   ours_c, "per seed, the contrast (m − o)/(m + o) of the mean σ_w^eq of the "
+                   "slabs (horizontal layers of the toroidal map) in the middle third of the "
+                   "height (m) against the other slabs (o); its mean over the seeds > 0 "
+                   "beyond 2 standard errors", _verdict(ok_c),
                    runs=[f"cylinder_k1_seed{sd}" for sd in scale.fig14_seeds],
                    note="one seed's map is mostly empty cells and a few tense links at the "
                         "reduced scales (its maximum cell moved from the floor to mid-height "

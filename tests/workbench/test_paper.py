@@ -89,19 +89,31 @@ def test_fig11_reads_every_seed():
     assert _fig11([None, None], (0, 1))[2] == (None, "runs missing")
 
 
-def test_fig13c_reads_the_mean_slab_profile_of_the_seeds():
-    """One seed with its largest slab on the floor and one at mid-height: the mean profile
-    decides; each seed's own maximum is listed; no run gives no verdict."""
+def test_fig13c_needs_a_mid_height_excess_beyond_the_seed_spread():
+    """Fig. 13c: per seed the contrast (m - o)/(m + o) of the middle third's slabs (m)
+    against the rest (o); reproduced only when its mean is > 0 beyond 2 standard errors.
+    A profile whose maximum wanders from seed to seed is not a result; no run, no verdict."""
     from workbench.paper import _fig13c
 
-    ze = np.linspace(0.0, 6e-3, 7)
+    ze = np.linspace(0.0, 6e-3, 7)           # slab centres at z/H = 1/12, 3/12, ... 11/12
     run = lambda prof: dict(torus_z_edges=ze, torus_slab_equivalent=np.asarray(prof, float),
                             torus_equivalent=np.ones((2, 6)), torus_strain=0.1)
-    ok, text = _fig13c([run([9, 0, 4, 4, 0, 0]), run([0, 0, 6, 6, 0, 0])], (0, 1))
-    assert ok is True and "z/H = 0.42" in text
-    assert "seed 0: 0.08" in text and "seed 1: 0.42" in text
-    ok, _ = _fig13c([run([9, 0, 4, 4, 0, 0]), run([9, 0, 6, 6, 0, 0])], (0, 1))
-    assert ok is False
+    # middle third = slabs 2 and 3; seed contrasts (5 - 1)/(5 + 1) = 2/3 and (6 - 2)/8 = 1/2
+    ok, text = _fig13c([run([1, 1, 5, 5, 1, 1]), run([2, 2, 6, 6, 2, 2]),
+                        run([1, 1, 5, 5, 1, 1])], (0, 1, 2))
+    assert ok is True
+    assert "+0.61 ± 0.10 over 3 seeds" in text and "+0.67, +0.50, +0.67" in text
+    assert "z/H = 0.42" in text and "seed 1: 0.42" in text
+    # each seed has its own maximum (floor, mid-height, top): the mean profile peaks in the
+    # middle (2.3, 1, 3.7, 3.7, 1, 2.3), but the contrasts (-1/3, +0.8, -1/3) do not say so
+    # beyond their spread
+    floor, middle, top = run([5, 1, 1, 1, 1, 1]), run([1, 1, 9, 9, 1, 1]), run([1, 1, 1, 1, 1, 5])
+    ok, text = _fig13c([floor, middle, top], (0, 1, 2))
+    assert ok is False and "-0.33, +0.80, -0.33" in text
+    assert "mean profile at z/H = 0.42" in text
+    assert "seed 0: 0.08" in text and "seed 2: 0.92" in text
+    # one seed: no spread, no verdict
+    assert _fig13c([middle], (0,))[0] is None
     assert _fig13c([None, dict(torus_strain=0.1)], (0, 1)) == (None, "runs missing")
 
 

@@ -25,8 +25,8 @@ Presets (``preset=``; ``**options`` listed with each builder)
     the weak network thin and light grey.
 ``torus``  (:func:`add_torus`)
     Toroidal map (paper Fig. 13c; :func:`engine.analysis.toroidal_map`): left, the
-    (r, z) section of the cylinder as an image of the equivalent stress [Pa] per torus
-    cell (grey = empty cell); right, the same map revolved about the cylinder axis over
+    axial section of the cylinder (the (r, z) map mirrored about the axis) as an image of
+    the equivalent stress [Pa] per torus cell (grey = empty cell); right, the same map revolved about the cylinder axis over
     ``sweep`` degrees (cut open, so the inside shows).
 
 Determinism: one fixed theme (:func:`theme`: white background, Arial, fixed font sizes,
@@ -202,6 +202,22 @@ def _select(part, mask):
                        point_data={k: v[idx] for k, v in part.point_data.items()})
 
 
+def _black_legend_text(legend, colors) -> None:
+    """Legend labels in black, each symbol in its colour.  vtkLegendBoxActor paints an
+    entry's text in the entry's colour (the light sand colour was hard to read on white);
+    with no entry colour it uses the text property's, and the symbol its own RGB scalars."""
+    import pyvista as pv
+
+    for i, col in enumerate(colors):
+        sym = pv.wrap(legend.GetEntrySymbol(i)).copy()
+        rgb = np.asarray(pv.Color(col).int_rgb, np.uint8)
+        sym.point_data["rgb"] = np.tile(rgb, (sym.n_points, 1))
+        sym.point_data.active_scalars_name = "rgb"
+        legend.SetEntrySymbol(i, sym)
+        legend.SetEntryColor(i, -1.0, -1.0, -1.0)
+    legend.GetEntryTextProperty().SetColor(0.0, 0.0, 0.0)
+
+
 def add_beads(pl, model, state, *, walls: bool = True, wall_opacity: float = 0.15,
               color_by: str = "kind", clim=None, cmap="viridis", cut=None) -> None:
     """Preset ``beads``: spheres coloured by ``color_by`` = ``"kind"`` (sand / wire,
@@ -228,9 +244,10 @@ def add_beads(pl, model, state, *, walls: bool = True, wall_opacity: float = 0.1
             entries = [[name, col] for k, name, col in ((meshes.BEAD_SAND, "sand", SAND_COLOR),
                                                        (meshes.BEAD_WIRE, "wire", WIRE_COLOR))
                        if k in kinds]
-            pl.add_legend(entries, bcolor="white", border=False, face="circle",
-                          size=(0.13, 0.035 * (len(entries) + 1)), loc="upper right",
-                          name="kind_legend")
+            legend = pl.add_legend(entries, bcolor="white", border=False, face="circle",
+                                   size=(0.13, 0.035 * (len(entries) + 1)),
+                                   loc="upper right", name="kind_legend")
+            _black_legend_text(legend, [col for _, col in entries])
         elif color_by in ("speed", "group"):
             title = "speed [m/s]" if color_by == "speed" else "group"
             if clim is None:  # explicit: the point-Gaussian mapper's bar would show 0-1
@@ -356,8 +373,8 @@ def _cylinder_of(model, state):
 def add_torus(pl, model, state, *, cylinder=None, tmap=None, n_r: int = 5, n_z: int = 10,
               part: str = "wire", field: str = "equivalent", clim=None, cmap="viridis",
               sweep: float = 270.0, resolution: int = 72, camera="iso") -> None:
-    """Preset ``torus`` on a plotter of shape (1, 2): the (r, z) section (left) and the
-    revolved view (right) of a toroidal map.
+    """Preset ``torus`` on a plotter of shape (1, 2): the axial section (left: the (r, z)
+    map mirrored about the axis) and the revolved view (right) of a toroidal map.
 
     ``tmap`` (an :class:`engine.analysis.ToroidalMap`) is computed with
     :func:`engine.analysis.toroidal_map` (``cylinder``, ``n_r``, ``n_z``, ``part``) when
@@ -381,28 +398,28 @@ def add_torus(pl, model, state, *, cylinder=None, tmap=None, n_r: int = 5, n_z: 
     else:
         raise ValueError(f"field must be 'equivalent' or 'pressure', got {field!r}")
     re_, ze = np.asarray(tmap.r_edges, float), np.asarray(tmap.z_edges, float)
-    nr, nz = len(re_) - 1, len(ze) - 1
     finite = values[np.isfinite(values)]
     lim = clim if clim is not None else (
         (float(finite.min()), float(finite.max())) if finite.size and finite.max() > finite.min()
         else (0.0, float(finite.max()) if finite.size and finite.max() > 0 else 1.0))
-    flat = np.asarray(values, float).ravel(order="F")  # cell (a, b) at a + nr*b (VTK order)
 
-    # left: the (r, z) section, drawn in the x-y plane (r along x, z along y)
-    sec = pv.RectilinearGrid(re_, ze, np.array([0.0]))
-    sec.cell_data[title] = flat
+    # left: the axial section (paper Fig. 13c: "drawn in the axial/radial section"), the
+    # (r, z) map mirrored about the axis so that it reads as a cut through the sample and
+    # is twice as wide as a half section; drawn in the x-y plane (x = ±r, z along y)
+    sec = axial_section(values, re_, ze, title)
+    xe = np.asarray(sec.x)
     pl.subplot(0, 0)
-    pl.add_text("section (r, z)", font_size=10, color="black", position="upper_left")
+    pl.add_text("axial section", font_size=10, color="black", position="upper_left")
     pl.add_mesh(sec, scalars=title, cmap=cmap, clim=lim, nan_color=NAN_COLOR, show_edges=True,
                 edge_color="white", lighting=False, show_scalar_bar=True,
-                scalar_bar_args=_bar(title, position_x=0.80, width=0.08))
-    pl.show_bounds(xtitle="r [m]", ytitle="z [m]", ztitle="", show_zaxis=False, color="black",
-                   font_size=10, fmt="%.2g", location="front", grid=False, use_2d=True,
-                   n_xlabels=3, n_ylabels=5)
-    set_camera(pl, "top", bounds=np.array([[re_[0], ze[0], 0.0], [re_[-1], ze[-1], 0.0]]))
+                scalar_bar_args=_bar(title, position_x=0.84, width=0.07))
+    pl.show_bounds(xtitle="r [m], both sides of the axis", ytitle="z [m]", ztitle="",
+                   show_zaxis=False, color="black", font_size=11, fmt="%.2g",
+                   location="front", grid=False, use_2d=True, n_xlabels=3, n_ylabels=5)
+    set_camera(pl, "top", bounds=np.array([[xe[0], ze[0], 0.0], [xe[-1], ze[-1], 0.0]]))
     pl.enable_parallel_projection()
     pl.reset_camera()
-    pl.camera.zoom(0.85)
+    pl.camera.zoom(0.8)
 
     # right: revolved about the axis over `sweep` degrees
     k = max(2, int(round(resolution * sweep / 360.0)))
@@ -420,6 +437,27 @@ def add_torus(pl, model, state, *, cylinder=None, tmap=None, n_r: int = 5, n_z: 
     lo = c - (re_[-1], re_[-1], 0.0)
     hi = c + (re_[-1], re_[-1], ze[-1])
     set_camera(pl, camera, bounds=np.array([lo, hi]))
+
+
+def axial_section(values, r_edges, z_edges, name: str = "values"):
+    """The axial section of an axisymmetric (r, z) cell map: a :class:`pyvista.RectilinearGrid`
+    in the x-y plane, x = ±r (the map mirrored about the axis), y = z, one cell per map cell
+    on each side, ``values`` (nr, nz) as cell data ``name``.  When the map starts off the
+    axis (r_edges[0] > 0) the hole is one NaN cell across it."""
+    import pyvista as pv
+
+    re_, ze = np.asarray(r_edges, float), np.asarray(z_edges, float)
+    vals = np.asarray(values, float)
+    if vals.shape != (re_.size - 1, ze.size - 1):
+        raise ValueError(f"values must have shape {(re_.size - 1, ze.size - 1)} (r cells, "
+                         f"z cells), got {vals.shape}")
+    on_axis = re_[0] == 0.0
+    xe = np.concatenate([-re_[::-1], re_[1:] if on_axis else re_])
+    hole = np.full((0 if on_axis else 1, vals.shape[1]), np.nan)
+    both = np.concatenate([vals[::-1], hole, vals], axis=0)        # (2 nr [+ 1], nz)
+    sec = pv.RectilinearGrid(xe, ze, np.array([0.0]))
+    sec.cell_data[name] = both.ravel(order="F")                     # x fastest (VTK order)
+    return sec
 
 
 def tmap_center(cylinder, model, state):

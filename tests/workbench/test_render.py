@@ -171,3 +171,40 @@ def test_headless_in_a_fresh_process(tmp_path):
                          capture_output=True, text=True, timeout=300)
     assert out.stdout.strip() == "vtkEGLRenderWindow"
     assert (tmp_path / "h.png").stat().st_size > 0
+
+
+def test_axial_section_mirrors_the_map_about_the_axis():
+    """The torus preset's section: each (r, z) cell drawn on both sides of the axis at
+    x = ±r; a map that starts off the axis keeps its hole as one empty (NaN) cell."""
+    vals = np.arange(6.0).reshape(3, 2)               # 3 r cells, 2 z cells
+    sec = render.axial_section(vals, [0.0, 1.0, 2.0, 3.0], [0.0, 5.0, 10.0], "s")
+    np.testing.assert_array_equal(sec.x, [-3, -2, -1, 0, 1, 2, 3])
+    grid = sec.cell_data["s"].reshape(2, 6)           # z rows, x fastest
+    np.testing.assert_array_equal(grid, [[4, 2, 0, 0, 2, 4], [5, 3, 1, 1, 3, 5]])
+    centres = sec.cell_centers().points
+    for (x, z, _), v in zip(centres, sec.cell_data["s"]):   # same value at ±r
+        a, b = int(abs(x)), int(z // 5.0)
+        assert v == vals[a, b]
+    ring = render.axial_section(vals, [1.0, 2.0, 3.0, 4.0], [0.0, 5.0, 10.0], "s")
+    np.testing.assert_array_equal(ring.x, [-4, -3, -2, -1, 1, 2, 3, 4])
+    row = ring.cell_data["s"].reshape(2, 7)[0]
+    assert np.isnan(row[3]) and np.array_equal(np.delete(row, 3), [4, 2, 0, 0, 2, 4])
+    with pytest.raises(ValueError, match="values must have shape"):
+        render.axial_section(vals.T, [0.0, 1.0, 2.0, 3.0], [0.0, 5.0, 10.0])
+
+
+def test_kind_legend_has_black_labels_and_coloured_symbols(scene):
+    """The beads legend: black labels (the sand colour is too light for text on white),
+    each symbol in its kind's colour."""
+    model, state, _ = scene
+    pl = render.plotter(model, state, "beads", window_size=SIZE)
+    try:
+        legend = pl.legend
+        assert legend.GetNumberOfEntries() == 2
+        assert legend.GetEntryTextProperty().GetColor() == (0.0, 0.0, 0.0)
+        for i, col in enumerate((render.SAND_COLOR, render.WIRE_COLOR)):
+            assert tuple(legend.GetEntryColor(i)) == (-1.0, -1.0, -1.0)
+            rgb = pv.wrap(legend.GetEntrySymbol(i)).point_data["rgb"]
+            np.testing.assert_array_equal(np.unique(rgb, axis=0), [pv.Color(col).int_rgb])
+    finally:
+        pl.close()

@@ -240,7 +240,8 @@ def figures_of(result, out: Path) -> list[Path]:
     h = io.read_history(result.history, frames=False)
     paths.append(figures.convergence_figure(h.iterations, h.residual, out / "convergence.png",
                                             tol=result.params.get("tol"),
-                                            max_iter=result.params.get("max_iter")))
+                                            max_iter=result.params.get("max_iter"),
+                                            step=h.step))
     return paths
 
 

@@ -176,21 +176,27 @@ def directions_figure(before, after, path) -> Path:
     return _save(fig, path)
 
 
-def convergence_figure(iterations, residual, path, *, tol=None, max_iter=None) -> Path:
-    """NLGS sweeps and final residual per step (a step at max_iter did not converge)."""
+def convergence_figure(iterations, residual, path, *, tol=None, max_iter=None,
+                       step=None) -> Path:
+    """NLGS sweeps and final residual of the recorded steps (a step at max_iter did not
+    converge), against their step numbers ``step`` (the history's ``step``; the record
+    index when not given)."""
     fig, ax = _axes(2, 1, size=(6.4, 5.0))
     it = np.asarray(iterations)
-    ax[0, 0].plot(it, lw=0.8)
+    x = np.arange(it.size) if step is None else np.asarray(step)
+    if x.shape != it.shape:
+        raise ValueError(f"step must have one entry per record ({it.size}), got {x.shape}")
+    ax[0, 0].plot(x, it, lw=0.8)
     if max_iter:
         ax[0, 0].axhline(max_iter, color="r", ls="--", lw=0.8, label="max_iter")
         ax[0, 0].legend(fontsize=8)
     ax[0, 0].set_ylabel("NLGS sweeps")
-    ax[1, 0].semilogy(np.asarray(residual), lw=0.8)
+    ax[1, 0].semilogy(x, np.asarray(residual), lw=0.8)
     if tol:
         ax[1, 0].axhline(tol, color="r", ls="--", lw=0.8, label="tol")
         ax[1, 0].legend(fontsize=8)
     ax[1, 0].set_ylabel("residual (Quad norm)")
-    ax[1, 0].set_xlabel("record")
+    ax[1, 0].set_xlabel("record" if step is None else "step")
     for a in ax[:, 0]:
         a.grid(alpha=0.3)
     return _save(fig, path)

@@ -457,6 +457,12 @@ def load(path, frame: int = -1, callables: dict | None = None) -> tuple[Model, S
     return _reading(path, read)
 
 
+def file_content(path) -> tuple[str, int]:
+    """What an nscd-workbench file holds: (``"checkpoint"`` or ``"history"``, format
+    version).  FileNotFoundError or :class:`FormatError` (naming the file) otherwise."""
+    return _reading(path, lambda f: (_check_root(f, path), int(f.attrs["format_version"])))
+
+
 def load_model(path, callables: dict | None = None) -> Model:
     """The model of a checkpoint or history file (see :func:`load`)."""
     def read(f):
@@ -846,6 +852,6 @@ def _state_from_frame(f, model: Model, frame: int) -> State:
     return state
 
 
-__all__ = ["save", "load", "load_model", "History", "HistoryData", "read_history", "Checkpoint",
+__all__ = ["save", "load", "load_model", "file_content", "History", "HistoryData", "read_history", "Checkpoint",
            "FormatError", "UnsavedCallable", "kinetic_energy", "wall_forces", "FORMAT_VERSION",
            "FORMAT_NAME"]

@@ -246,14 +246,11 @@ def figures_of(result, out: Path) -> list[Path]:
 
 
 def info(path) -> str:
-    import h5py
     import numpy as np
 
     from engine import io
 
-    with h5py.File(path, "r", locking=False) as f:
-        content = str(f.attrs.get("content", "?"))
-        version = f.attrs.get("format_version", "?")
+    content, version = io.file_content(path)
     model = io.load_model(path)
     lines = [f"{path}: nscd-workbench {content}, format version {version}",
              f"  bodies {model.n_bodies} ({len(model.sphere_ids)} spheres, "

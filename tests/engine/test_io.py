@@ -419,3 +419,18 @@ def test_history_frame_gives_the_wire_stress(tmp_path):
     ref = live[25 * (k + 1)]
     assert np.abs(ref).max() > 0
     np.testing.assert_allclose(got, ref, rtol=0, atol=0.02 * np.abs(ref).max())
+
+
+def test_file_content_tells_a_checkpoint_from_a_history(tmp_path):
+    model, state = scene(n=10)
+    io.save(tmp_path / "c.h5", model, state)
+    assert io.file_content(tmp_path / "c.h5") == ("checkpoint", io.FORMAT_VERSION)
+    with io.History(tmp_path / "h.h5", frames=2) as h, _Quiet():
+        run(model, state, 2, writers=[h], progress=False)
+    assert io.file_content(tmp_path / "h.h5") == ("history", io.FORMAT_VERSION)
+    with h5py.File(tmp_path / "x.h5", "w") as f:
+        f.attrs["format"] = "something-else"
+    with pytest.raises(io.FormatError, match="not an"):
+        io.file_content(tmp_path / "x.h5")
+    with pytest.raises(FileNotFoundError):
+        io.file_content(tmp_path / "missing.h5")

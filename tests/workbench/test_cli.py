@@ -73,3 +73,23 @@ def test_help_on_every_command(capsys):
             cli.main([*cmd, "--help"])
         assert e.value.code == 0
         assert "usage: nscd" in capsys.readouterr().out
+
+
+@pytest.mark.parametrize("command", ["info", "render", "export"])
+def test_commands_refuse_a_file_that_is_not_ours(command, tmp_path, capsys):
+    """A text file, an HDF5 file of someone else's, a missing file: exit code 2 and one
+    line naming the file, not a traceback."""
+    import h5py
+
+    text = tmp_path / "notes.h5"
+    text.write_text("not HDF5")
+    other = tmp_path / "other.h5"
+    with h5py.File(other, "w") as f:
+        f["x"] = [1.0]
+    for path, says in ((text, "not a readable HDF5 file"), (other, "not an nscd-workbench"),
+                       (tmp_path / "missing.h5", "no such file")):
+        args = [command, str(path)] + ([str(tmp_path / "out")] if command == "export" else [])
+        assert cli.main(args) == 2
+        err = capsys.readouterr().err
+        assert err.startswith(f"nscd {command}: ") and says in err and str(path) in err
+        assert "Traceback" not in err

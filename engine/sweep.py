@@ -126,7 +126,12 @@ def _law(wire, k):
     from . import laws
 
     if wire in ("elastic", True):
-        return True, laws.ElasticWire(stiffness=float(1.0 if k is None else k))
+        try:
+            k = float(1.0 if k is None else k)
+        except (TypeError, ValueError):
+            raise ValueError(f"k must be the elastic wire's stiffness in N (> 0), got {k!r}") \
+                from None
+        return True, laws.ElasticWire(stiffness=k)
     if wire == "rigid":
         return True, laws.RigidWire()
     if wire in ("none", False, None):
@@ -193,6 +198,27 @@ def _paper_test(name):
 
     experiment.__name__ = experiment.__qualname__ = name
     return experiment
+
+
+def _check_paper_cases(name, cases, fixed) -> None:
+    """Refuse, before anything runs, a case of a paper test with a parameter the test does
+    not take or a wire it cannot build (naming the case and the allowed names)."""
+    import inspect
+
+    from . import experiments
+
+    own = set(inspect.signature(getattr(experiments, name)).parameters)
+    allowed = (own - {"wire_law", "history", "progress"}) | {"wire", "k", "history_dir"}
+    for c in cases:
+        params = dict(fixed, **c)
+        bad = sorted(set(params) - allowed)
+        if bad:
+            raise ValueError(f"{name} takes no parameter {', '.join(map(repr, bad))}; its "
+                             f"parameters are {', '.join(sorted(allowed))}")
+        try:
+            _law(params.get("wire", "elastic"), params.get("k"))
+        except ValueError as e:
+            raise ValueError(f"{name}, case {c}: {e}") from None
 
 
 #: The paper's tests by name, as sweep experiments (JSON-able parameters in, scalars out).
@@ -426,6 +452,8 @@ def sweep(experiment, grid, client=None, *, out="out/sweep.json", retries: int =
     name = _experiment_name(experiment)
     cases = expand_grid(grid)
     fixed = dict(fixed or {})
+    if isinstance(experiment, str):
+        _check_paper_cases(name, cases, fixed)
     out = Path(out)
     if out.suffix != ".json":
         out = out.with_suffix(".json")

@@ -171,9 +171,17 @@ def test_a_cluster_without_workers_fails_the_cases_instead_of_hanging(tmp_path):
     assert all("NoWorkers" in r["errors"][-1] for r in table.rows)
 
 
-def test_named_experiment_rejects_bad_input(tmp_path):
-    table = sweep("box_triaxial", {"scale": [0.03], "wire": ["steel"]}, "serial",
-                  out=tmp_path / "bad.json", retries=0, progress=False)
-    row = table.rows[0]
-    assert row["status"] == "failed" and row["attempts"] == 1
-    assert "wire must be" in row["errors"][0]
+def test_named_experiment_rejects_bad_input_before_running(tmp_path):
+    """A paper test's case with a wire it cannot build, a stiffness that is not a positive
+    number, or a parameter the test does not take is refused before any case runs (no
+    table written), naming the case or the parameter and listing the allowed names."""
+    bad = [({"scale": [0.03], "wire": ["elastic", "steel"]}, r"case \{.*'steel'\}: wire must"),
+           ({"k": ["abc"]}, "k must be the elastic wire's stiffness in N"),
+           ({"k": [-1.0]}, "greater than 0"),
+           ({"scale": [0.03], "frictoin": [0.3]}, "takes no parameter 'frictoin'; its "
+                                                   "parameters are .*mu_wire")]
+    for grid, says in bad:
+        with pytest.raises(ValueError, match=says):
+            sweep("box_triaxial", grid, "serial", out=tmp_path / "bad.json", retries=0,
+                  progress=False)
+    assert not (tmp_path / "bad.json").exists()

@@ -8,11 +8,13 @@ bottleneck).  Targets: cylinder triaxial at scale 1 under 10 min; slope under 1 
 Usage: python bench/bench_experiments.py [--scale-cyl 0.2] [--scale-box 0.2] [--scale-slope 0.1]
                                         [--tests cylinder_triaxial,box_triaxial,slope_deposit]
                                         [--threads T] [--slope-steps N] [--hot-sweeps H]
+                                        [--anderson M]
 
 ``--slope-steps N`` stops the slope deposit after N steps (default: the paper's 4 000, or
 rest): a timing sample of the first N steps, e.g. to compare thread counts at scale 1.
-``--hot-sweeps H`` runs every test with ``anderson=0, hot_sweeps=H`` instead of the tests'
-default ``anderson=4`` (docs/speed.md).
+``--hot-sweeps H`` runs every test with ``hot_sweeps=H`` and ``--anderson M`` with
+``anderson=M`` (hot re-sweeps then off) instead of the tests' default ``hot_sweeps=2``
+(``anderson=4`` was the default until 2026-11-25; docs/speed.md).
 Writes bench/results/experiments-YYYYMMDD-HHMM.json.
 """
 from __future__ import annotations
@@ -83,9 +85,10 @@ def main():
                     help="comma-separated subset of the three tests")
     ap.add_argument("--threads", type=int, default=1,
                     help="NLGS threads of every test (docs/speed.md: 2 pays on large samples)")
-    ap.add_argument("--hot-sweeps", type=int, default=0,
-                    help="run with anderson=0 and this many hot re-sweeps (0: the default "
-                         "anderson=4)")
+    ap.add_argument("--hot-sweeps", type=int, default=None,
+                    help="run with this many hot re-sweeps (default: the tests' 2)")
+    ap.add_argument("--anderson", type=int, default=0,
+                    help="run with Anderson mixing of this depth (hot re-sweeps off)")
     ap.add_argument("--slope-steps", type=int, default=None,
                     help="stop the slope deposit after this many steps (a timing sample)")
     a = ap.parse_args()
@@ -104,8 +107,10 @@ def main():
         for t in tests:
             fn, scale = known[t]
             kw = {"steps": a.slope_steps} if t == "slope_deposit" and a.slope_steps else {}
-            if a.hot_sweeps:
-                kw.update(anderson=0, hot_sweeps=a.hot_sweeps)
+            if a.anderson:
+                kw.update(anderson=a.anderson)
+            if a.hot_sweeps is not None:
+                kw.update(hot_sweeps=a.hot_sweeps)
             out["runs"].append(measure(t, fn, scale, tmp, a.threads, **kw))
     out["targets_seconds"] = {"cylinder_triaxial": 600, "slope_deposit": 3600}
     out["busy"] = busy.finish()

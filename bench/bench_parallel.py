@@ -13,7 +13,7 @@ For each size (bench_scaling.py's randomly numbered compressed FCC packings): co
   wall time of the step, NLGS sweeps to tolerance, converged or not, and the largest
   velocity difference between the two end states, translation and r × spin, relative to
   g h (the velocity one step of gravity gives);
-* **to tolerance with Anderson mixing** (``anderson=4``, the experiments' default) and with
+* **to tolerance with Anderson mixing** (``anderson=4``, the experiments' default until 2026-11-25) and with
   hot re-sweeps (``hot_sweeps=2``): the same step with 1 and 2 threads, and the 2-thread
   time against plain serial;
 * **per sweep**: ``sweeps`` sweeps exactly (tol ~ 0): wall and process CPU time per sweep
@@ -48,7 +48,7 @@ import record  # noqa: E402
 from bench_scaling import SIZES, packing  # noqa: E402
 
 
-#: Depth of the Anderson-accelerated runs (the experiments' default).
+#: Depth of the Anderson-accelerated runs (the experiments' default until 2026-11-25).
 ANDERSON = 4
 #: Re-sweeps of the hot-contact runs (docs/speed.md).
 HOT = 2

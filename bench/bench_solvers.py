@@ -1,6 +1,6 @@
 """Solver options benchmark (issue 9, item 5: every knob that trades speed measured): the
 1 000-sphere deposit of ``make bench-peers`` run to rest with plain Gauss–Seidel,
-Anderson mixing (``anderson=4``, the experiments' default) and re-sweeps of the hot
+Anderson mixing (``anderson=4``, the experiments' default until 2026-11-25) and re-sweeps of the hot
 contacts (``hot_sweeps``), at the paper's step and at a 10x larger one.
 
 Run:  .venv/bin/python bench/bench_solvers.py            (about 4 min, one thread)

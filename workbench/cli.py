@@ -57,13 +57,14 @@ class SolverParams(_Strict):
     theta: float = Field(0.5, ge=0.5, le=1.0)
     tol: float = Field(3e-4, gt=0, lt=1)
     max_iter: int = Field(1000, ge=1)
-    anderson: int = Field(4, ge=0, le=16,
-                          description="NLGS Anderson acceleration depth (0: plain Gauss-Seidel)")
+    anderson: int = Field(0, ge=0, le=16,
+                          description="NLGS Anderson acceleration depth (0: none)")
     threads: int = Field(1, ge=1, le=64,
                          description="NLGS threads (2 pays on tens of thousands of contacts)")
-    hot_sweeps: int = Field(0, ge=0, le=8,
-                            description="re-sweeps of the contacts that changed most after "
-                                        "each NLGS sweep (needs anderson = 0)")
+    hot_sweeps: int | None = Field(None, ge=0, le=8,
+                                   description="re-sweeps of the contacts that changed most "
+                                               "after each NLGS sweep (needs anderson = 0; "
+                                               "default 2, 0 when anderson > 0)")
     mu: float = Field(0.5, ge=0, le=10)
     mu_wire: float = Field(0.3, ge=0, le=10)
     max_nonconverged: float = Field(0.25, ge=0, le=1)
@@ -72,7 +73,7 @@ class SolverParams(_Strict):
 
     @model_validator(mode="after")
     def _hot_alone(self):
-        if self.hot_sweeps > 0 and self.anderson > 0:
+        if self.hot_sweeps and self.anderson > 0:
             raise ValueError(f"hot_sweeps = {self.hot_sweeps} needs anderson = 0 (got "
                              f"{self.anderson})")
         return self

@@ -14,7 +14,8 @@ from ..analysis.wire import direction_histogram, wire_chains, wire_stats
 from ..prep import slope_sample
 from ..prep.relax import kinetic_energy
 from ..scene import Scene
-from .common import Recorder, Stages, check_positive, check_scale, finish, history_writer
+from .common import (Recorder, Stages, check_positive, check_scale, finish, history_writer,
+                     solver_choice)
 
 __all__ = ["slope_deposit", "SlopeResult", "hex_floor"]
 
@@ -90,8 +91,8 @@ def _hists(chains):
 def slope_deposit(scale: float = 0.02, *, wire: bool = True, wire_density: float | None = None,
                   wire_law=None, steps: int = 4000, ke_fraction: float = 1e-4,
                   rubber_radius: float = 0.3e-3, floor_extent: float = 5.0, dt: float = 5e-5,
-                  theta: float = 0.5, tol: float = 1e-4, max_iter: int = 1000, anderson: int = 4,
-                  threads: int = 1, hot_sweeps: int = 0, mu: float = 0.5,
+                  theta: float = 0.5, tol: float = 1e-4, max_iter: int = 1000, anderson: int = 0,
+                  threads: int = 1, hot_sweeps: int | None = None, mu: float = 0.5,
                   mu_floor: float = 0.8, mu_wire: float = 0.3, record_every: int = 20,
                   frames: int = 200, max_nonconverged: float = 0.25,
                   history: str = "out/slope_deposit.h5", seed: int = 0,
@@ -104,15 +105,17 @@ def slope_deposit(scale: float = 0.02, *, wire: bool = True, wire_density: float
     onto a floor of fixed beads of ``rubber_radius`` [m] on a hexagonal lattice spanning
     ``floor_extent`` × the sample radius, and released (no mould) under gravity.  It runs
     until the sample's kinetic energy is below ``ke_fraction`` of its peak, or ``steps``
-    steps (the paper's 4 000 steps of 0.05 ms).  ``anderson`` (default 4; 0 for plain
-    Gauss–Seidel) is the depth of the NLGS acceleration (:mod:`engine.solver.anderson`):
-    measured at scale 0.1, 8.5 % of the steps hit ``max_iter`` with it against 25 % without
-    (docs/speed.md).  ``threads`` (default 1) is the NLGS thread count
+    steps (the paper's 4 000 steps of 0.05 ms).  ``hot_sweeps`` (default None: 2, or 0
+    when ``anderson`` > 0) re-sweeps the contacts that changed most after each sweep
+    (:attr:`engine.model.Options.hot_sweeps`): at scale 0.05, 1.5 % of the steps hit
+    ``max_iter`` with it against 21 % with ``anderson=4`` (docs/speed.md).  ``anderson``
+    (default 0) is the depth of the other NLGS acceleration (:mod:`engine.solver.anderson`),
+    the default before 2026-11-25.  ``threads`` (default 1) is the NLGS thread count
     (:attr:`engine.model.Options.threads`); 2 pays only on samples of tens of thousands of
-    contacts (docs/speed.md).  ``hot_sweeps`` (default 0; with ``anderson=0`` only) re-sweeps
-    the contacts that changed most after each sweep (:attr:`engine.model.Options.hot_sweeps`).
+    contacts (docs/speed.md).
     """
     scale = check_scale(scale)
+    anderson, hot_sweeps = solver_choice(anderson, hot_sweeps)
     check_positive("rubber_radius", rubber_radius, "[m]")
     check_positive("floor_extent", floor_extent, "[-]")
     if not 0 < float(ke_fraction) < 1:

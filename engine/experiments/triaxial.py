@@ -15,12 +15,13 @@ Both run two stages on a geometric sample (:mod:`engine.prep.samples`), under gr
 The default NLGS tolerance is 3e-4, not the engine's 1e-4: on these confined samples the
 residual stagnates between 1e-4 and 2.5e-4 (measured on the cylinder at scale 0.05: 1 041 of
 1 500 isotropic steps hit 1 000 sweeps at tol = 1e-4, relaxation 0.7 did not help; 186 of 800
-at 3e-4, nearly all during the pressure ramp).  ``anderson`` (default 4) is the depth of
-the NLGS acceleration (:mod:`engine.solver.anderson`, docs/speed.md); 0 gives plain
-Gauss–Seidel.  ``threads`` (default 1) is the NLGS thread count
-(:attr:`engine.model.Options.threads`); 2 pays only on samples of tens of thousands of
-contacts (docs/speed.md).  ``hot_sweeps`` (default 0; with ``anderson=0`` only) re-sweeps the
-contacts that changed most after each sweep (:attr:`engine.model.Options.hot_sweeps`).
+at 3e-4, nearly all during the pressure ramp).  ``hot_sweeps`` (default None: 2, or 0 when
+``anderson`` > 0; :data:`engine.experiments.common.HOT_SWEEPS`) re-sweeps the contacts that
+changed most after each sweep (:attr:`engine.model.Options.hot_sweeps`, docs/speed.md).
+``anderson`` (default 0) is the depth of the other NLGS acceleration
+(:mod:`engine.solver.anderson`), the default before 2026-11-25.  ``threads`` (default 1) is
+the NLGS thread count (:attr:`engine.model.Options.threads`); 2 pays only on samples of tens
+of thousands of contacts (docs/speed.md).
 
 Between the stages the top wall's drive is switched (:meth:`engine.model.Model.with_drive`).
 A velocity-driven (kinematic) top wall in stage 1 was tried first: on a jammed packing of
@@ -41,8 +42,7 @@ from ..drivers import Confinement
 from ..prep import Box, Cylinder, box_sample, cylinder_sample
 from ..scene import Scene
 from .common import (ConfinementError, Recorder, Stages, TestResult, check_positive, check_scale,
-                     choose_rate,
-                     finish, history_writer)
+                     choose_rate, finish, history_writer, solver_choice)
 
 __all__ = ["cylinder_triaxial", "box_triaxial"]
 
@@ -143,7 +143,7 @@ def cylinder_triaxial(scale: float = 0.05, *, pressure: float = 15e3, wire: bool
                       wire_law=None, axial_strain: float = 0.1, strain_rate: float | None = None,
                       target_I: float = 5e-4, allow_dynamic: bool = False, dt: float = 5e-5,
                       theta: float = 0.5, tol: float = 3e-4, max_iter: int = 1000,
-                      relax: float = 1.0, anderson: int = 4, threads: int = 1, hot_sweeps: int = 0, mu: float = 0.5,
+                      relax: float = 1.0, anderson: int = 0, threads: int = 1, hot_sweeps: int | None = None, mu: float = 0.5,
                       mu_wall: float = 0.5,
                       mu_wire: float = 0.3, compaction_mu: float | None = None,
                       iso_tol: float = 0.02, iso_hold: int = 5, iso_max_steps: int = 4000,
@@ -172,6 +172,7 @@ def cylinder_triaxial(scale: float = 0.05, *, pressure: float = 15e3, wire: bool
     ``max_nonconverged`` of the steps hit ``max_iter``.
     """
     scale = check_scale(scale)
+    anderson, hot_sweeps = solver_choice(anderson, hot_sweeps)
     p = _common_checks(pressure, max_nonconverged, target_I, record_every)
     eps_max = check_positive("axial_strain", axial_strain, "[-]")
     compaction_mu = _compaction_mu(compaction_mu, CYLINDER_COMPACTION_MU_MIN,
@@ -410,7 +411,7 @@ def box_triaxial(scale: float = 0.05, *, pressure: float = 15e3, wire: bool = Tr
                  strain_rate: float | None = None, target_I: float = 5e-4,
                  allow_dynamic: bool = False, dt: float = 5e-5, theta: float = 0.5,
                  tol: float = 3e-4, max_iter: int = 1000, relax: float = 1.0,
-                 anderson: int = 4, threads: int = 1, hot_sweeps: int = 0, mu: float = 0.5, mu_wall: float = 0.0,
+                 anderson: int = 0, threads: int = 1, hot_sweeps: int | None = None, mu: float = 0.5, mu_wall: float = 0.0,
                  mu_wire: float = 0.3, compaction_mu: float | None = None,
                  wall_mass: float | None = None, iso_tol: float = 0.02,
                  iso_hold: int = 5, iso_max_steps: int = 4000, check_every: int = 10,
@@ -433,6 +434,7 @@ def box_triaxial(scale: float = 0.05, *, pressure: float = 15e3, wire: bool = Tr
     the particles (Fig. 12).
     """
     scale = check_scale(scale)
+    anderson, hot_sweeps = solver_choice(anderson, hot_sweeps)
     p = _common_checks(pressure, max_nonconverged, target_I, record_every)
     eps_max = check_positive("axial_strain", axial_strain, "[-]")
     compaction_mu = _compaction_mu(compaction_mu)

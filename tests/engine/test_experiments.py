@@ -88,6 +88,7 @@ def test_slope_deposit_stopped_early_keeps_its_result(tmp_path):
                           progress=False)
     assert r.profile is None and np.isnan(r.max_slope_deg) and not r.at_rest
     assert r.convergence["steps"] == 5 and "not spread" in r.params["profile_error"]
+    assert (r.params["anderson"], r.params["hot_sweeps"]) == (0, 2)   # the tests' default
     assert r.sector_heights.shape == (0, 8)
     assert r.floor_force >= 0 and r.wire_after is not None
     assert "nan" in str(r)
@@ -225,3 +226,15 @@ def test_threads_and_anderson_reach_the_solver(fn, scale, monkeypatch, tmp_path)
     with pytest.raises(Compiled):
         fn(scale, anderson=0, hot_sweeps=2, history=str(tmp_path / "y.h5"), progress=False)
     assert seen["hot_sweeps"] == 2 and seen["anderson"] == 0
+
+
+def test_solver_choice_defaults_to_hot_sweeps_unless_anderson_is_asked_for():
+    """The experiments re-sweep hot contacts by default (docs/speed.md); asking for Anderson
+    mixing turns them off (the two do not combine), and explicit values are kept."""
+    from engine.experiments.common import HOT_SWEEPS, solver_choice
+
+    assert HOT_SWEEPS == 2
+    assert solver_choice(0, None) == (0, 2)
+    assert solver_choice(4, None) == (4, 0)
+    assert solver_choice(0, 0) == (0, 0) and solver_choice(0, 3) == (0, 3)
+    assert solver_choice(4, 2) == (4, 2)     # refused later by compile, with its message

@@ -46,7 +46,7 @@ def test_info_render_export(demo, tmp_path, capsys):
     ('test = "slope_deposit"\nscale = 0\n', "scale: Input should be greater than 0"),
     ('test = "slope_deposit"\n[wire]\nlaw = "rope"\n', "wire.law"),
     ('test = = 1', "not valid TOML"),
-    ('test = "slope_deposit"\n[parameters]\nhot_sweeps = 2\n',
+    ('test = "slope_deposit"\n[parameters]\nanderson = 4\nhot_sweeps = 2\n',
      "hot_sweeps = 2 needs anderson = 0 (got 4)"),
 ])
 def test_bad_config_gives_one_clear_message(tmp_path, capsys, toml, expected):

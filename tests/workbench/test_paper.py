@@ -68,8 +68,9 @@ def test_fig10_pairs_the_heaps_by_seed():
 
 
 def test_fig11_reads_every_seed():
-    """11a: the worst seed decides; 11b: the seeds' mean upper tensor; 11c: the upper/lower
-    ratio paired by seed must exceed 1 beyond 2 standard errors."""
+    """11a: the worst seed decides; 11b: each seed's upper-half σ_zz / max horizontal must
+    be below 1/3 beyond 2 standard errors; 11c: the upper/lower ratio paired by seed must
+    exceed 1 beyond 2 standard errors."""
     from workbench.paper import _fig11
 
     def run(up, lo, smallest=0.0):
@@ -82,10 +83,17 @@ def test_fig11_reads_every_seed():
     (a, ta), (b, tb), (c, tc) = _fig11(runs, (0, 1, 2))
     assert a is False and "seed 2" in ta                      # one seed compresses its wire
     assert b is True and "σ_zz / max horizontal = 0.12" in tb   # mean (2, 1.07, 0.23)
+    assert "ratios 0.12 ± 0.02" in tb                          # 0.10, 0.14, 0.11
     assert c is True and "over 3 seeds" in tc
     runs[1] = run([0.5, 0.4, 0.1], [1.0, 0.5, 0.1])             # one seed the other way
     (_, _), (_, _), (c, _) = _fig11(runs, (0, 1, 2))
     assert c is False
+    # the seeds' ratios 0.20, 0.45, 0.25 (mean 0.30 < 1/3, but not beyond their spread)
+    near = [run([2.0, 1.0, 0.4], [1, 1, 1]), run([2.0, 1.0, 0.9], [1, 1, 1]),
+            run([2.0, 1.0, 0.5], [1, 1, 1])]
+    (_, _), (b, tb), (_, _) = _fig11(near, (0, 1, 2))
+    assert b is False and "σ_zz / max horizontal = 0.30" in tb
+    assert _fig11(near[:1], (0,))[1][0] is None                # one seed: no spread
     assert _fig11([None, None], (0, 1))[2] == (None, "runs missing")
 
 

@@ -852,6 +852,6 @@ def _state_from_frame(f, model: Model, frame: int) -> State:
     return state
 
 
-__all__ = ["save", "load", "load_model", "file_content", "History", "HistoryData", "read_history", "Checkpoint",
-           "FormatError", "UnsavedCallable", "kinetic_energy", "wall_forces", "FORMAT_VERSION",
-           "FORMAT_NAME"]
+__all__ = ["save", "load", "load_model", "file_content", "History", "HistoryData",
+           "read_history", "Checkpoint", "FormatError", "UnsavedCallable", "kinetic_energy",
+           "wall_forces", "FORMAT_VERSION", "FORMAT_NAME"]

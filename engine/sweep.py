@@ -208,7 +208,7 @@ def _check_paper_cases(name, cases, fixed) -> None:
     from . import experiments
 
     own = set(inspect.signature(getattr(experiments, name)).parameters)
-    allowed = (own - {"wire_law", "history", "progress"}) | {"wire", "k", "history_dir"}
+    allowed = (own - {"wire_law"}) | {"k", "history_dir"}      # the law comes from wire, k
     for c in cases:
         params = dict(fixed, **c)
         bad = sorted(set(params) - allowed)

@@ -36,7 +36,8 @@ def test_cases_cover_the_figures():
         for seed in s.fig14_seeds:
             assert f"cylinder_sand_seed{seed}" in names
             assert f"cylinder_k1_seed{seed}" in names   # Fig. 13c on every seed
-            assert f"box_rw1_seed{seed}" in names       # Fig. 11 on every seed
+            for div in (1, 3, 4):                       # Fig. 11 and 12 on every seed
+                assert f"box_rw{div}_seed{seed}" in names
         from workbench.paper import fig10_seeds
         assert len(fig10_seeds(s)) >= 2
         for seed in fig10_seeds(s):                     # Fig. 10 on several seeds
@@ -95,6 +96,31 @@ def test_fig11_reads_every_seed():
     assert b is False and "σ_zz / max horizontal = 0.30" in tb
     assert _fig11(near[:1], (0,))[1][0] is None                # one seed: no spread
     assert _fig11([None, None], (0, 1))[2] == (None, "runs missing")
+
+
+def test_fig12_pairs_the_bead_sizes_by_seed():
+    """12a: the r_min gap below 0.25 beyond 2 standard errors; 12b: the thinner wires' gaps
+    above the r_min gap of the same seed, beyond 2 standard errors; no run, no verdict."""
+    from workbench.paper import _fig12
+
+    def box(gap):                     # sand strains (1, 0, 0), wire strains (1 + gap, 0, 0)
+        return dict(strain_sand_principal=np.array([1.0, 0.0, 0.0]),
+                    strain_wire_principal=np.array([1.0 + gap, 0.0, 0.0]))
+
+    seeds = (0, 1, 2)
+    runs = [{1: box(g1), 3: box(g3), 4: box(g4)}
+            for g1, g3, g4 in ((0.10, 0.30, 0.40), (0.12, 0.35, 0.50), (0.08, 0.28, 0.45))]
+    (a, b), text = _fig12(runs, seeds)
+    assert a is True and b is True
+    assert "r_min 0.10 ± 0.02, r_min/3 0.31 ± 0.04, r_min/4 0.45 ± 0.05" in text
+    assert "seed 1: 0.12, 0.35, 0.50" in text
+    # one seed where the thin wire follows the sand better: b is not beyond the spread;
+    # an r_min gap of 0.30 on one seed (mean 0.16 ± 0.12): a is not either
+    runs[1] = {1: box(0.30), 3: box(0.10), 4: box(0.60)}
+    (a, b), _ = _fig12(runs, seeds)
+    assert a is False and b is False
+    assert _fig12([{1: None, 3: box(0.3), 4: box(0.4)}], (0,)) == ((None, None), "runs missing")
+    assert _fig12(runs[:1], (0,))[0] == (None, None)             # one seed: no spread
 
 
 def test_fig13c_needs_a_mid_height_excess_beyond_the_seed_spread():

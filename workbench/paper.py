@@ -465,15 +465,15 @@ def _fig12(runs, seeds):
                 gaps[d].append(g[d])
     if not used:
         return (None, None), "runs missing"
-    m1, s1, n = _seed_stats(gaps[1])
+    stats = {d: _seed_stats(gaps[d]) for d in gaps}
+    m1, s1, n = stats[1]
     a = _significant(0.25 - m1, s1, n)
     diffs = {d: _seed_stats(np.subtract(gaps[d], gaps[1])) for d in (3, 4)}
     sig = [_significant(*diffs[d]) for d in (3, 4)]
     b = None if None in sig else all(sig)
     text = ("‖ε_wire − ε_sand‖ / ‖ε_sand‖ (principal strains at the end), mean ± std over "
             f"{n} seeds: r_min {m1:.2f} ± {s1:.2f}, r_min/3 "
-            + ", r_min/4 ".join(f"{_seed_stats(gaps[d])[0]:.2f} ± {_seed_stats(gaps[d])[1]:.2f}"
-                                for d in (3, 4))
+            + ", r_min/4 ".join(f"{stats[d][0]:.2f} ± {stats[d][1]:.2f}" for d in (3, 4))
             + "; minus the r_min gap of the same seed: r_min/3 "
             + ", r_min/4 ".join(f"{diffs[d][0]:+.2f} ± {diffs[d][1]:.2f}" for d in (3, 4))
             + "; per seed (r_min, r_min/3, r_min/4) "

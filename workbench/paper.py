@@ -116,10 +116,47 @@ def fig10_seeds(scale: Scale) -> tuple:
     return tuple(scale.fig14_seeds[:3])
 
 
-def cases_for(scale: Scale) -> list[dict]:
+def claim_runs(scale: Scale) -> dict:
+    """{claim id: the names of the runs it reads} at ``scale``, in the report's order (the
+    claims of :func:`evaluate`, scored on no runs)."""
+    return {c.id: list(c.runs) for c in evaluate({}, {}, scale)}
+
+
+def select_claims(only, scale: Scale) -> list | None:
+    """The claim ids that ``only`` names (None: all of them, returned as None).
+
+    ``only`` is a claim id or a figure prefix (``"fig14"`` selects fig14-k0.2, fig14-rigid
+    and fig14-order; ``"fig10"`` selects fig10a and fig10b), or several of them as a list
+    or a comma-separated string.  An unknown name raises ``ValueError`` listing the ids.
+    """
+    if only is None:
+        return None
+    items = [only] if isinstance(only, str) else list(only)
+    names = [w.strip().lower() for it in items for w in str(it).split(",") if w.strip()]
+    if not names:
+        raise ValueError("only: name at least one claim (e.g. 'fig14'), or pass None for all")
+    ids = list(claim_runs(scale))
+    chosen = []
+    for w in names:
+        hit = [i for i in ids
+               if i == w or (i.startswith(w) and not i[len(w)].isdigit())]
+        if not hit:
+            raise ValueError(f"only: unknown claim {w!r}; the claims are {', '.join(ids)} "
+                             "(a figure prefix such as 'fig14' selects all of its claims)")
+        chosen += [i for i in hit if i not in chosen]
+    return [i for i in ids if i in chosen]
+
+
+def cases_for(scale: Scale, only=None) -> list[dict]:
     """The cases of a report: JSON-able parameters of :func:`paper_case`, each with a
     ``name`` (the run's file stem).  Shared runs (the cylinder with k = 1 N of Fig. 13 is
-    also Table 2's) appear once."""
+    also Table 2's) appear once.  ``only`` (see :func:`select_claims`) keeps the runs that
+    the named claims read."""
+    chosen = select_claims(only, scale)
+    if chosen is not None:
+        runs = claim_runs(scale)
+        need = {r for i in chosen for r in runs[i]}
+        return [c for c in cases_for(scale) if c["name"] in need]
     cases = []
     sl = scale.slope
     for seed in fig10_seeds(scale):                          # Fig. 7-10 (10 on every seed)
@@ -688,7 +725,8 @@ def evaluate(curves: dict, rows: dict, scale: Scale) -> list[Claim]:
                    _verdict(_significant(dm, dsd, dn)), runs=runs14))
     # Fig. 15 ------------------------------------------------------------
     fits = {}
-    for tag in [f"k{_fmt_k(k)}" for k in scale.k_list] + ["rigid"]:
+    tags15 = [f"k{_fmt_k(k)}" for k in scale.k_list] + ["rigid"]
+    for tag in tags15:
         t = c(f"cylinder_{tag}_seed0")
         if t is not None:
             fits[tag] = h_fit(t["axial_strain"], t["wire_equivalent"])
@@ -707,7 +745,7 @@ def evaluate(curves: dict, rows: dict, scale: Scale) -> list[Claim]:
                    note="revised after the first default-scale report: macro_stiffness's 1 % "
                         "criterion found no linear range in any run, so the fallback line and "
                         "its r² decide",
-                   runs=[f"cylinder_{t}_seed0" for t in fits]))
+                   runs=[f"cylinder_{t}_seed0" for t in tags15]))
     # Fig. 16 / Table 2 --------------------------------------------------
     ks, Hs = _H_list(curves, scale)
     H_inf = _H_of(c("cylinder_rigid_seed0"))
@@ -738,7 +776,8 @@ def evaluate(curves: dict, rows: dict, scale: Scale) -> list[Claim]:
                    "Spearman ρ(k, H) ≥ 0.6 and H(k_max) > H(k_min)", _verdict(ok_a),
                    note=h_note + "our H is in Pa (slope of σ_w^eq [Pa] vs ε_zz); the paper's "
                                  "unit is unclear, so shapes are compared, not values",
-                   runs=[f"cylinder_k{_fmt_k(k)}_seed0" for k in scale.k_list]))
+                   runs=[f"cylinder_k{_fmt_k(k)}_seed0" for k in scale.k_list]
+                   + ["cylinder_rigid_seed0"]))
     C.append(Claim("fig16b", "Fig. 16 / Table 2", "H tends towards the rigid wire's H∞",
                    f"H(100 N) / H∞ = {pH[-1] / PAPER_VALUES['table2_H_inf']:.2f}", ours_b,
                    "0.75 ≤ H(k_max) / H∞ ≤ 1.1", _verdict(ok_b), note=h_note.rstrip("; "),
@@ -955,8 +994,9 @@ def _empty(path, text):
     return _save(fig, path)
 
 
-def snapshots(runs_dir: Path, fig_dir: Path) -> tuple[dict, list]:
-    """PyVista pictures of the last frames (Fig. 8-9, 11, 13); ({key: path}, problems)."""
+def snapshots(runs_dir: Path, fig_dir: Path, runs=None) -> tuple[dict, list]:
+    """PyVista pictures of the last frames (Fig. 8-9, 11, 13); ({key: path}, problems).
+    ``runs``: the names of the report's runs (None: all); the others are not drawn."""
     from .cli import render_frame
 
     jobs = [("fig09_beads", "slope_w400_seed0", "beads", "iso"),
@@ -968,6 +1008,8 @@ def snapshots(runs_dir: Path, fig_dir: Path) -> tuple[dict, list]:
             ("fig13_torus", "cylinder_k1_seed0", "torus", "iso")]
     out, problems = {}, []
     for key, run, preset, cam in jobs:
+        if runs is not None and run not in runs:
+            continue
         h = runs_dir / f"{run}.h5"
         try:
             out[key] = render_frame(h, fig_dir / f"{key}.png", preset=preset, camera=cam)
@@ -976,12 +1018,14 @@ def snapshots(runs_dir: Path, fig_dir: Path) -> tuple[dict, list]:
     return out, problems
 
 
-def series(runs_dir: Path, series_dir: Path) -> tuple[dict, list]:
-    """ParaView series (VTU + PVD) of three runs."""
+def series(runs_dir: Path, series_dir: Path, runs=None) -> tuple[dict, list]:
+    """ParaView series (VTU + PVD) of three runs (those of them in ``runs``, when given)."""
     from .cli import export_series
 
     out, problems = {}, []
     for run in ("slope_w400_seed0", "box_rw1_seed0", "cylinder_k1_seed0"):
+        if runs is not None and run not in runs:
+            continue
         try:
             out[run] = export_series(runs_dir / f"{run}.h5", series_dir / run, name=run,
                                      progress=False)
@@ -1016,11 +1060,14 @@ def _git_commit():
 
 
 def build_report(out="out/paper", scale="default", *, scheduler=None, progress=True,
-                 render=True) -> Report:
+                 render=True, only=None) -> Report:
     """Run (or reuse) every case of ``scale`` and write ``out/report.md`` with the figures,
     the runs, the series and the sweep table.
 
     ``scheduler``: None (a LocalCluster of 2 workers), "serial", or a scheduler address.
+    ``only``: some claims (ids or figure prefixes, :func:`select_claims`), e.g. "fig14":
+    the report then runs, scores and draws those claims alone (the way to take one figure
+    to the paper's scale on a small machine).
     """
     from engine.sweep import sweep
 
@@ -1034,7 +1081,8 @@ def build_report(out="out/paper", scale="default", *, scheduler=None, progress=T
     runs_dir, fig_dir, series_dir = out / "runs", out / "figures", out / "series"
     for d in (runs_dir, fig_dir, series_dir):
         d.mkdir(parents=True, exist_ok=True)
-    cases = cases_for(scale)
+    chosen = select_claims(only, scale)
+    cases = cases_for(scale, only=chosen)
     table = sweep(paper_case, cases, scheduler, out=out / "sweep.json",
                   fixed={"runs_dir": str(runs_dir.resolve())}, progress=progress)
     t_sim = table.wall_time
@@ -1045,21 +1093,45 @@ def build_report(out="out/paper", scale="default", *, scheduler=None, progress=T
         if r["status"] == "done" and p.exists():
             curves[name] = read_curves(p)
     claims = evaluate(curves, rows, scale)
-    figs = make_figures(curves, scale, fig_dir)
+    runs = None if chosen is None else set(rows)
+    if chosen is not None:
+        claims = [c for c in claims if c.id in chosen]
+    figs = {k: v for k, v in make_figures(curves, scale, fig_dir).items()
+            if _figure_wanted(k, chosen)}
     problems = []
     if render:
-        snaps, pr = snapshots(runs_dir, fig_dir)
+        snaps, pr = snapshots(runs_dir, fig_dir, runs)
         figs.update(snaps)
         problems += pr
-    pvds, pr = series(runs_dir, series_dir)
+    pvds, pr = series(runs_dir, series_dir, runs)
     problems += pr
     wall = time.perf_counter() - t0
     path = out / "report.md"
     path.write_text(_markdown(scale, claims, figs, pvds, table, rows, curves, out, wall,
-                              t_sim, problems, scheduler))
+                              t_sim, problems, scheduler, chosen))
     (out / "claims.json").write_text(json.dumps([c.__dict__ for c in claims], indent=1,
                                                 ensure_ascii=False))
     return Report(path, claims, figs, table, wall, problems)
+
+
+def _figure_number(name: str) -> int:
+    """The paper's figure number of a claim id or figure key: "fig8-9" and "fig08_09" -> 8,
+    "fig09_beads" -> 9, "fig14-rigid" -> 14."""
+    digits = ""
+    for ch in name[3:]:
+        if not ch.isdigit():
+            break
+        digits += ch
+    return int(digits)
+
+
+def _figure_wanted(key: str, chosen) -> bool:
+    """Whether figure ``key`` belongs to the claims ``chosen`` (None: all)."""
+    if chosen is None:
+        return True
+    nums = {_figure_number(i) for i in chosen}
+    n = _figure_number(key)
+    return n in nums or (n == 9 and 8 in nums)        # Fig. 9's pictures go with fig8-9
 
 
 def _rel(p, out):
@@ -1070,14 +1142,15 @@ def _rel(p, out):
 
 
 def _markdown(scale, claims, figs, pvds, table, rows, curves, out, wall, t_sim, problems,
-              scheduler) -> str:
+              scheduler, chosen=None) -> str:
     L = []
     now = _dt.datetime.now().strftime("%Y-%m-%d %H:%M")
     counts = {s: sum(c.status == s for c in claims)
               for s in ("reproduced", "not reproduced", "not comparable")}
     L += [f"# Reproduction of Laniel, Alart & Pagano §3 (Fig. 7-16, Table 2) — scale `{scale.name}`",
           "",
-          f"Built {now} by `nscd paper --scale {scale.name}` (nscd-workbench commit "
+          f"Built {now} by `nscd paper --scale {scale.name}"
+          f"{' --only ' + ','.join(chosen) if chosen is not None else ''}` (nscd-workbench commit "
           f"{_git_commit()}), Python {platform.python_version()} on {os.cpu_count()} cores; "
           f"cluster: {scheduler or 'LocalCluster, 2 workers'}.",
           f"Wall time {wall:.0f} s, of which simulations {t_sim:.0f} s "
@@ -1085,6 +1158,9 @@ def _markdown(scale, claims, figs, pvds, table, rows, curves, out, wall, t_sim, 
           f"from an earlier build, {len(table.failed)} failed).",
           "",
           f"**Scale `{scale.name}`**: {scale.description}.", ""]
+    if chosen is not None:
+        L += [f"> **Some claims only** (`--only`): {', '.join(chosen)}. The other claims, "
+              "their runs and their figures are not part of this report.", ""]
     if scale.smoke:
         L += ["> **Smoke scale.** The samples are far too small and the strains too short for "
               "any claim to be judged: every claim below is marked *not comparable*. The "
@@ -1121,12 +1197,28 @@ def _markdown(scale, claims, figs, pvds, table, rows, curves, out, wall, t_sim, 
                   ("fig15", "Fig. 15 — wire equivalent stress vs axial strain, with the linear fits"),
                   ("fig16", "Fig. 16 / Table 2 — macro-stiffness H vs k; right: H / H∞, ours and the paper's")]
     for key, title in fig_titles:
+        if not _figure_wanted(key, chosen):
+            continue
         if key in figs:
             L += [f"### {title}", "", f"![{key}]({_rel(figs[key], out)})", ""]
         else:
             L += [f"### {title}", "", "*(not drawn; see Problems)*", ""]
     # Table 2
-    L += ["## Table 2 — H vs k", "",
+    if _figure_wanted("fig15", chosen) or _figure_wanted("fig16", chosen):
+        L += _table2_lines(curves, rows)
+    L += _run_lines(scale, rows, pvds, out)
+    if problems:
+        L += ["## Problems", ""] + [f"- {p}" for p in problems] + [""]
+    if table.failed:
+        L += ["## Failed runs", ""]
+        for r in table.failed:
+            L += [f"- {r['params']['name']} ({r['attempts']} attempts):", "", "```",
+                  r["errors"][-1], "```", ""]
+    return "\n".join(L) + "\n"
+
+
+def _table2_lines(curves, rows) -> list:
+    L = ["## Table 2 — H vs k", "",
           "Ours: `h_fit` — the slope found by `engine.analysis.macro_stiffness` (a final range "
           "linear within 1 %) or, when there is none, the least-squares line from ε = 0.6 % "
           "(the method and r² are given).", "",
@@ -1150,8 +1242,11 @@ def _markdown(scale, claims, figs, pvds, table, rows, curves, out, wall, t_sim, 
         L.append(f"| {k} | {pH} | {pH / PAPER_VALUES['table2_H_inf']:.2f} | {ours} | "
                  f"{_g(f['H'] / H_inf, '.2f') if f and H_inf else 'n/a'} | "
                  f"{_g(f['r2'], '.2f') if f else ''} | {f['method'] if f else ''} | {start} |")
-    # runs
-    L += ["", "## Runs", "",
+    return L + [""]
+
+
+def _run_lines(scale, rows, pvds, out) -> list:
+    L = ["## Runs", "",
           f"Sweep table: `sweep.json` / `sweep.h5` (re-running `nscd paper` with the same "
           f"`--out` skips the runs already done). Histories: `runs/<name>.h5` "
           f"(`nscd info`, `nscd render`, `nscd export`); curves: `runs/<name>.curves.h5`.", "",
@@ -1179,11 +1274,4 @@ def _markdown(scale, claims, figs, pvds, table, rows, curves, out, wall, t_sim, 
           "0.3; wire law ElasticWire(k = 1 N) unless the run says otherwise. Seeds: 0 for every "
           f"figure, {list(fig10_seeds(scale))} for Fig. 10, {list(scale.fig14_seeds)} for Fig. "
           "11, Fig. 13c and Fig. 14 (small effects and sparse maps).", ""]
-    if problems:
-        L += ["## Problems", ""] + [f"- {p}" for p in problems] + [""]
-    if table.failed:
-        L += ["## Failed runs", ""]
-        for r in table.failed:
-            L += [f"- {r['params']['name']} ({r['attempts']} attempts):", "", "```",
-                  r["errors"][-1], "```", ""]
-    return "\n".join(L) + "\n"
+    return L

@@ -47,6 +47,36 @@ def test_cases_cover_the_figures():
     assert SCALES["default"].k_list == (0.1, 0.2, 0.5, 1, 2, 5, 10, 20, 50, 100)
 
 
+def test_only_selects_claims_and_the_runs_they_read():
+    """``only`` expands figure prefixes to claim ids, refuses unknown names with the list of
+    ids, and keeps exactly the runs the chosen claims read; every run of a full report is
+    read by some claim (so a selection never drops a run a claim needs)."""
+    from workbench.paper import claim_runs, select_claims
+
+    for s in SCALES.values():
+        runs = claim_runs(s)
+        assert list(runs) == CLAIMS
+        full = {c["name"] for c in cases_for(s)}
+        assert {r for v in runs.values() for r in v} == full, s.name
+        for cid in CLAIMS:
+            assert {c["name"] for c in cases_for(s, only=cid)} == set(runs[cid]), (s.name, cid)
+    s = SCALES["paper"]
+    assert select_claims(None, s) is None
+    assert select_claims("fig14", s) == ["fig14-k0.2", "fig14-rigid", "fig14-order"]
+    assert select_claims("FIG10, fig8", s) == ["fig8-9", "fig10a", "fig10b"]   # report order
+    assert select_claims(["fig16b", "fig13c"], s) == ["fig13c", "fig16b"]
+    assert [c["name"] for c in cases_for(s, only="fig14")] == [
+        f"cylinder_{t}_seed{sd}" for sd in (0, 1, 2) for t in ("sand", "k0.2", "rigid")]
+    assert len(cases_for(s, only="fig15")) == len(s.k_list) + 1
+    for bad in ("fig1", "fig17", "table"):                 # fig1 is not a prefix of fig10a
+        with pytest.raises(ValueError, match="unknown claim .*fig14-order"):
+            select_claims(bad, s)
+    with pytest.raises(ValueError, match="at least one claim"):
+        select_claims(" , ", s)
+    from workbench.cli import main
+    assert main(["paper", "--only", "fig99", "--out", "/nonexistent/never"]) == 2
+
+
 def test_fig10_pairs_the_heaps_by_seed():
     """10a: each TexSol heap steeper than the sand heap of the same seed beyond 2 standard
     errors; 10b: 800 km·m⁻³ steeper than 400 the same way; one seed gives no verdict."""
@@ -191,6 +221,18 @@ def test_nscd_paper_tiny(tmp_path):
     assert p2.returncode == 0, p2.stderr[-3000:]
     n = len(cases_for(SCALES["tiny"]))
     assert f"{n} cases, {n} already done, 0 to run" in p2.stdout
+    # --only fig14: its 6 runs reused, its claims and figure alone
+    p3 = subprocess.run(cmd + ["--scheduler", "serial", "--no-render", "--only", "fig14"],
+                        capture_output=True, text=True, timeout=300)
+    assert p3.returncode == 0, p3.stderr[-3000:]
+    assert "6 cases, 6 already done, 0 to run" in p3.stdout
+    report = (out / "report.md").read_text()
+    assert "--only fig14-k0.2,fig14-rigid,fig14-order" in report
+    ids = [c["id"] for c in json.loads((out / "claims.json").read_text())]
+    assert ids == ["fig14-k0.2", "fig14-rigid", "fig14-order"]
+    assert re.findall(r"figures/(\w+)\.png", report) == ["fig14_stress_strain"]
+    assert "Table 2" not in report and "series/" not in report
+    assert len(re.findall(r"^\| cylinder_\w+\.?\w* \| done", report, re.M)) == 6
 
 
 def test_sweep_grid_parsing():

@@ -399,6 +399,14 @@ def _significant(mean, sd, n):
     return bool(mean - 2 * sd / math.sqrt(n) > 0)
 
 
+def _against(mean, sd, n) -> str:
+    """What a mean that is not above 0 beyond 2 standard errors is: within the spread, or
+    below 0 beyond 2 standard errors (an effect of the opposite sign)."""
+    if _significant(-mean, sd, n):
+        return "below 0 beyond 2 standard errors: the opposite effect"
+    return "within the seed spread"
+
+
 def _fig10(runs, seeds):
     """Fig. 10 a-b on the slope deposits of several seeds (``runs``: per seed a dict sand /
     w400 / w800 of curves): two (verdict, text).  a: θ of each TexSol heap minus the sand's,
@@ -709,7 +717,7 @@ def evaluate(curves: dict, rows: dict, scale: Scale) -> list[Claim]:
         ours = (f"{m:+.1%} ± {sd:.1%} (mean ± std over {n} seeds; per seed q sand → wire: {qs})"
                 if n else "runs missing")
         if ok is False:
-            ours += "; within the seed spread"
+            ours += f"; {_against(m, sd, n)}"
         C.append(Claim(f"fig14-{t}", "Fig. 14", f"the {label} raises the stress at the final "
                        f"strain", f"{pv:+.0%}", ours,
                        "the mean increase of q (paired by seed) exceeds 2 standard errors of "

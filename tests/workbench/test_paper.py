@@ -77,6 +77,17 @@ def test_only_selects_claims_and_the_runs_they_read():
     assert main(["paper", "--only", "fig99", "--out", "/nonexistent/never"]) == 2
 
 
+def test_a_negative_effect_beyond_the_spread_is_called_opposite():
+    """Fig. 14's text tells a decrease beyond 2 standard errors from one within the spread
+    (the numbers of the paper-scale and default-scale reports)."""
+    from workbench.paper import _against, _significant
+
+    assert _significant(-0.093, 0.051, 3) is False
+    assert _against(-0.093, 0.051, 3).endswith("the opposite effect")   # 2 SE = 0.059
+    assert _against(-0.036, 0.087, 5) == "within the seed spread"       # 2 SE = 0.078
+    assert _against(-0.05, 0.051, 3) == "within the seed spread"
+
+
 def test_fig10_pairs_the_heaps_by_seed():
     """10a: each TexSol heap steeper than the sand heap of the same seed beyond 2 standard
     errors; 10b: 800 km·m⁻³ steeper than 400 the same way; one seed gives no verdict."""

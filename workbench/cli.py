@@ -9,7 +9,7 @@
     nscd export RUN.h5 OUTDIR                every frame of a history as VTU + a PVD
     nscd info RUN.h5                         what a checkpoint or history holds
     nscd paper [--scale tiny|default|paper] [--out DIR] [--scheduler ADDRESS|serial]
-               [--only CLAIMS]
+               [--only CLAIMS] [--threads T]
                                              reproduce the paper's §3: DIR/report.md, figures,
                                              runs, series (workbench/paper.py)
     nscd sweep TEST --grid NAME=V1,V2 ... [--out TABLE.json] [--scheduler ADDRESS|serial]
@@ -330,7 +330,7 @@ def cmd_paper(a) -> int:
     from .paper import build_report
 
     rep = build_report(a.out, a.scale, scheduler=a.scheduler, render=not a.no_render,
-                       only=a.only)
+                       only=a.only, threads=a.threads)
     counts = {}
     for c in rep.claims:
         counts[c.status] = counts.get(c.status, 0) + 1
@@ -424,6 +424,9 @@ def parser() -> argparse.ArgumentParser:
     pp.add_argument("--only", default=None, metavar="CLAIMS",
                     help="run and report these claims only: ids or figure prefixes, "
                          "comma-separated (e.g. fig14 or fig13c,fig14-rigid)")
+    pp.add_argument("--threads", type=int, default=None,
+                    help="NLGS threads of each run (default 1; 2 pays on a paper-scale slope "
+                         "with --scheduler serial)")
     pp.add_argument("--no-render", action="store_true", help="skip the PyVista snapshots")
     pp.set_defaults(fn=cmd_paper)
     sw = sub.add_parser("sweep", help="run a test over a grid of parameters on Dask")

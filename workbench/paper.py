@@ -311,7 +311,7 @@ def paper_case(*, test: str, name: str, wire: str, k=None, seed: int = 0, runs_d
                 pass
     _write_curves(curves, arr)
     out = scalars_of(res)
-    out.update(curves=curves, history=history)
+    out.update(curves=curves, history=history, threads=int(kw.get("threads", 1)))
     if test == "slope_deposit":
         out["linear_slope_deg"] = float(arr["linear_slope_deg"])
     return out
@@ -1068,7 +1068,7 @@ def _git_commit():
 
 
 def build_report(out="out/paper", scale="default", *, scheduler=None, progress=True,
-                 render=True, only=None) -> Report:
+                 render=True, only=None, threads=None) -> Report:
     """Run (or reuse) every case of ``scale`` and write ``out/report.md`` with the figures,
     the runs, the series and the sweep table.
 
@@ -1076,6 +1076,10 @@ def build_report(out="out/paper", scale="default", *, scheduler=None, progress=T
     ``only``: some claims (ids or figure prefixes, :func:`select_claims`), e.g. "fig14":
     the report then runs, scores and draws those claims alone (the way to take one figure
     to the paper's scale on a small machine).
+    ``threads``: NLGS threads of each run (None: the tests' default, 1).  It is not part of
+    a run's identity: runs made with another count are reused.  Two threads pay on the
+    paper-scale slope (1.79× in docs/experiments.md) when one run at a time goes
+    (``scheduler="serial"``); with two workers on two cores, keep 1.
     """
     from engine.sweep import sweep
 
@@ -1084,15 +1088,22 @@ def build_report(out="out/paper", scale="default", *, scheduler=None, progress=T
             scale = SCALES[scale]
         except KeyError:
             raise ValueError(f"unknown scale {scale!r}; choose one of {', '.join(SCALES)}") from None
+    if threads is not None and (isinstance(threads, bool) or not isinstance(threads, int)
+                                or not 1 <= threads <= 64):
+        raise ValueError(f"threads must be an integer in [1, 64] (NLGS threads per run), "
+                         f"got {threads!r}")
+    chosen = select_claims(only, scale)
     t0 = time.perf_counter()
     out = Path(out)
     runs_dir, fig_dir, series_dir = out / "runs", out / "figures", out / "series"
     for d in (runs_dir, fig_dir, series_dir):
         d.mkdir(parents=True, exist_ok=True)
-    chosen = select_claims(only, scale)
+    fixed = {"runs_dir": str(runs_dir.resolve())}
+    if threads is not None:
+        fixed["threads"] = threads
     cases = cases_for(scale, only=chosen)
-    table = sweep(paper_case, cases, scheduler, out=out / "sweep.json",
-                  fixed={"runs_dir": str(runs_dir.resolve())}, progress=progress)
+    table = sweep(paper_case, cases, scheduler, out=out / "sweep.json", fixed=fixed,
+                  progress=progress)
     t_sim = table.wall_time
     rows = {r["params"]["name"]: r for r in table.rows}
     curves = {}
@@ -1116,7 +1127,7 @@ def build_report(out="out/paper", scale="default", *, scheduler=None, progress=T
     wall = time.perf_counter() - t0
     path = out / "report.md"
     path.write_text(_markdown(scale, claims, figs, pvds, table, rows, curves, out, wall,
-                              t_sim, problems, scheduler, chosen))
+                              t_sim, problems, scheduler, chosen, threads))
     (out / "claims.json").write_text(json.dumps([c.__dict__ for c in claims], indent=1,
                                                 ensure_ascii=False))
     return Report(path, claims, figs, table, wall, problems)
@@ -1150,7 +1161,7 @@ def _rel(p, out):
 
 
 def _markdown(scale, claims, figs, pvds, table, rows, curves, out, wall, t_sim, problems,
-              scheduler, chosen=None) -> str:
+              scheduler, chosen=None, threads=None) -> str:
     L = []
     now = _dt.datetime.now().strftime("%Y-%m-%d %H:%M")
     counts = {s: sum(c.status == s for c in claims)
@@ -1158,9 +1169,11 @@ def _markdown(scale, claims, figs, pvds, table, rows, curves, out, wall, t_sim, 
     L += [f"# Reproduction of Laniel, Alart & Pagano §3 (Fig. 7-16, Table 2) — scale `{scale.name}`",
           "",
           f"Built {now} by `nscd paper --scale {scale.name}"
-          f"{' --only ' + ','.join(chosen) if chosen is not None else ''}` (nscd-workbench commit "
+          f"{' --only ' + ','.join(chosen) if chosen is not None else ''}"
+          f"{f' --threads {threads}' if threads is not None else ''}` (nscd-workbench commit "
           f"{_git_commit()}), Python {platform.python_version()} on {os.cpu_count()} cores; "
-          f"cluster: {scheduler or 'LocalCluster, 2 workers'}.",
+          f"cluster: {scheduler or 'LocalCluster, 2 workers'}; NLGS threads per run: "
+          f"{threads or 1} in this build (runs reused from earlier builds keep theirs).",
           f"Wall time {wall:.0f} s, of which simulations {t_sim:.0f} s "
           f"({len(table.rows)} runs, {sum(1 for r in table.rows if r.get('skipped'))} reused "
           f"from an earlier build, {len(table.failed)} failed).",
@@ -1263,6 +1276,8 @@ def _run_lines(scale, rows, pvds, out) -> list:
     for name, r in rows.items():
         p = {k: v for k, v in r["params"].items() if k not in ("name", "seed")}
         res = r.get("result") or {}
+        if res.get("threads", 1) != 1:                 # a build's --threads (not a parameter)
+            p["threads"] = res["threads"]
         share = res.get("non_converged_share")
         el = r.get("elapsed")
         status = r["status"] + (" (reused)" if r.get("skipped") else "")

@@ -77,6 +77,21 @@ def test_only_selects_claims_and_the_runs_they_read():
     assert main(["paper", "--only", "fig99", "--out", "/nonexistent/never"]) == 2
 
 
+def test_threads_are_checked_before_anything_runs(tmp_path, capsys):
+    """--threads is a build option (not part of a run's identity), checked up front."""
+    from workbench.cli import main, parser
+    from workbench.paper import build_report
+
+    for bad in (0, 65, 1.5, True):
+        with pytest.raises(ValueError, match=r"threads must be an integer in \[1, 64\]"):
+            build_report(tmp_path / "p", "tiny", threads=bad, scheduler="serial")
+    assert not (tmp_path / "p").exists()
+    assert main(["paper", "--scale", "tiny", "--threads", "0", "--out", str(tmp_path / "q")]) == 2
+    assert "threads must be" in capsys.readouterr().err
+    a = parser().parse_args(["paper", "--threads", "2", "--only", "fig8-9"])
+    assert (a.threads, a.only) == (2, "fig8-9")
+
+
 def test_a_negative_effect_beyond_the_spread_is_called_opposite():
     """Fig. 14's text tells a decrease beyond 2 standard errors from one within the spread
     (the numbers of the paper-scale and default-scale reports)."""

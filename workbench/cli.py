@@ -416,7 +416,8 @@ def parser() -> argparse.ArgumentParser:
                         "Markdown report with figures, runs and series")
     pp.add_argument("--scale", default="default", choices=("tiny", "default", "paper"),
                     help="tiny: smoke test (minutes); default: reduced samples (~10 min on 2 "
-                         "cores); paper: the paper's sizes (days: use --scheduler)")
+                         "cores); paper: the paper's sizes (Fig. 11-16: ~45 min on 2 cores; the slopes: "
+                         "hours, use --only or --scheduler)")
     pp.add_argument("--out", default="out/paper", help="output directory (default out/paper)")
     pp.add_argument("--scheduler", default=None,
                     help="Dask scheduler address (default: a LocalCluster of 2 workers; "

@@ -257,7 +257,7 @@ def test_nscd_paper_tiny(tmp_path):
     ids = [c["id"] for c in json.loads((out / "claims.json").read_text())]
     assert ids == ["fig14-k0.2", "fig14-rigid", "fig14-order"]
     assert re.findall(r"figures/(\w+)\.png", report) == ["fig14_stress_strain"]
-    assert "Table 2" not in report and "series/" not in report
+    assert "## Table 2" not in report and "series/" not in report
     assert len(re.findall(r"^\| cylinder_\w+\.?\w* \| done", report, re.M)) == 6
 
 

@@ -844,159 +844,172 @@ def _res(t, label):
                            wire_equivalent=t["wire_equivalent"], params={}, name=label)
 
 
-def make_figures(curves: dict, scale: Scale, fig_dir: Path) -> dict:
+def make_figures(curves: dict, scale: Scale, fig_dir: Path, chosen=None) -> dict:
     """The report's matplotlib figures, {key: path}; a figure whose runs are missing is
-    drawn with what there is (an empty panel says so)."""
+    drawn with what there is (an empty panel says so).  ``chosen``: claim ids (None: all);
+    only their figures are drawn (the other files in ``fig_dir`` are left as they are)."""
     from . import figures
 
     fig_dir.mkdir(parents=True, exist_ok=True)
     out = {}
     c = curves.get
-    # Fig. 7
-    labels, before, after = ["paper (400)"], [PAPER_VALUES["tortuosity"][0]], \
-        [PAPER_VALUES["tortuosity"][1]]
-    for d in (400, 800):
-        t = c(f"slope_w{d}_seed0")
-        if t is not None and "tortuosity_before" in t:
-            labels.append(f"ours ({d})")
-            before.append(float(t["tortuosity_before"]))
-            after.append(float(t["tortuosity_after"]))
-    out["fig07"] = figures.tortuosity_figure(labels, before, after, fig_dir / "fig07_tortuosity.png")
-    # Fig. 8-9
-    t = c("slope_w400_seed0")
-    hb, ha = {}, {}
-    for pl in ("xy", "xz", "yz"):
-        for h, when in ((hb, "before"), (ha, "after")):
-            if t is not None and f"hist_{when}_{pl}_edges" in t:
-                h[pl] = (t[f"hist_{when}_{pl}_edges"], t[f"hist_{when}_{pl}_weights"])
-            else:
-                h[pl] = (np.linspace(0, np.pi, 19), np.zeros(18))
-    out["fig08_09"] = figures.directions_figure(hb, ha, fig_dir / "fig08_09_directions.png")
-    # Fig. 10
-    profs, labs = [], []
-    for tag, lab in (("sand", "sand"), ("w400", "TexSol(1) 400 km/m³"),
-                     ("w800", "TexSol(2) 800 km/m³")):
-        t = c(f"slope_{tag}_seed0")
-        if t is not None:
-            profs.append(SimpleNamespace(r=t["r"], height=t["height"], pressure=t["pressure"],
-                                         height_fit=np.poly1d(t["height_fit"]),
-                                         pressure_fit=np.poly1d(t["pressure_fit"]),
-                                         max_slope_deg=float(t["max_slope_deg"])))
-            labs.append(lab)
-    if profs:
-        out["fig10"] = figures.slope_figure(profs, fig_dir / "fig10_slope.png", labels=labs)
-    else:
-        out["fig10"] = _empty(fig_dir / "fig10_slope.png", "Fig. 10: slope runs missing")
-    # Fig. 11
-    t = c("box_rw1_seed0")
-    fig, ax = _fig(1, 2, size=(9.0, 4.0))
-    if t is not None and "wire_stress_upper" in t:
-        e = 100 * np.asarray(t["axial_strain"])
-        for a, half in zip(ax[0], ("upper", "lower")):
-            s = np.asarray(t[f"wire_stress_{half}"])
-            for i, comp in enumerate(("xx", "yy", "zz")):
-                a.plot(e, s[:, i, i], label=f"σ_{comp}")
-            w = np.linalg.eigvalsh(np.where(np.isfinite(s), s, 0.0))
-            a.plot(e, w[:, 0], "k:", lw=0.8, label="min principal")
-            a.set_title(f"wire stress, {half} half (R_{half[0]})", fontsize=9)
-            a.set_xlabel("axial strain [%]")
-            a.grid(alpha=0.3)
-        ax[0, 0].set_ylabel("wire Weber stress [Pa] (tension > 0)")
-        ax[0, 0].legend(fontsize=8)
-    out["fig11"] = _save(fig, fig_dir / "fig11_wire_stress.png")
-    # Fig. 12
-    fig, ax = _fig(1, 3, size=(10.0, 3.8))
-    for a, div in zip(ax[0], (1, 3, 4)):
-        t = c(f"box_rw{div}_seed0")
-        a.set_title(f"r_w = r_min{'' if div == 1 else f'/{div}'}", fontsize=9)
-        if t is None:
-            continue
-        x = np.arange(3)
-        for j, part in enumerate(("sand", "wire", "all")):
-            key = f"strain_{part}_principal"
-            if key in t:
-                a.bar(x + (j - 1) * 0.27, 100 * np.asarray(t[key]), 0.27, label=part)
-        a.set_xticks(x, ["ε₁", "ε₂", "ε₃"])
-        a.grid(alpha=0.3, axis="y")
-    ax[0, 0].set_ylabel("principal strain [%] (extension > 0)")
-    if ax[0, 0].get_legend_handles_labels()[0]:
-        ax[0, 0].legend(fontsize=8)
-    out["fig12"] = _save(fig, fig_dir / "fig12_strains.png")
-    # Fig. 13 (matplotlib part: barrel profile and toroidal map)
-    t = c("cylinder_k1_seed0")
-    fig, ax = _fig(1, 2, size=(9.0, 4.2))
-    if t is not None:
-        if "barrel_r_last" in t:
-            ax[0, 0].plot(1e3 * t["barrel_r_first"], 1e3 * t["barrel_z_first"], "o-", label="start")
-            ax[0, 0].plot(1e3 * t["barrel_r_last"], 1e3 * t["barrel_z_last"], "o-", label="end")
-            ax[0, 0].set_xlabel("outer radius [mm]")
-            ax[0, 0].set_ylabel("height [mm]")
-            ax[0, 0].legend(fontsize=8)
-            ax[0, 0].set_title("barrel shape", fontsize=9)
-        if "torus_equivalent" in t:
-            re_, ze = 1e3 * t["torus_r_edges"], 1e3 * t["torus_z_edges"]
-            im = ax[0, 1].pcolormesh(re_, ze, np.ma.masked_invalid(t["torus_equivalent"]).T,
-                                     cmap="viridis")
-            fig.colorbar(im, ax=ax[0, 1], label="σ_w^eq [Pa]")
-            ax[0, 1].set_xlabel("r [mm]")
-            ax[0, 1].set_ylabel("z [mm]")
-            ax[0, 1].set_title(f"toroidal map at ε = {float(t['torus_strain']):.0%}", fontsize=9)
-    out["fig13"] = _save(fig, fig_dir / "fig13_cylinder.png")
-    # Fig. 14
-    res, labs = [], []
-    for tag, lab in (("sand", "sand"), ("k0.2", "elastic k=0.2 N"), ("rigid", "rigid")):
-        for s in scale.fig14_seeds:
-            t = c(f"cylinder_{tag}_seed{s}")
-            if t is not None:
-                res.append(_res(t, lab))
-                labs.append(f"{lab}, seed {s}")
-    if res:
-        out["fig14"] = figures.stress_strain_figure(res, fig_dir / "fig14_stress_strain.png",
-                                                    labels=labs, title="Fig. 14: cylinder triaxial")
-    else:
-        out["fig14"] = _empty(fig_dir / "fig14_stress_strain.png", "Fig. 14: runs missing")
-    # Fig. 15
-    fig, ax = _fig()
-    a = ax[0, 0]
-    for tag in [f"k{_fmt_k(k)}" for k in scale.k_list] + ["rigid"]:
-        t = c(f"cylinder_{tag}_seed0")
-        if t is None:
-            continue
-        e = np.asarray(t["axial_strain"])
-        line, = a.plot(100 * e, t["wire_equivalent"], lw=1, label=tag)
-        f = h_fit(e, t["wire_equivalent"])
-        if f is not None:
-            xs = e[f["start"]:]
-            a.plot(100 * xs, f["H"] * xs + f["intercept"], "--", color=line.get_color(), lw=0.8)
-    a.set_xlabel("axial strain ε_zz [%]")
-    a.set_ylabel("wire equivalent stress ‖dev σ_w‖ [Pa]")
-    a.grid(alpha=0.3)
-    a.legend(fontsize=7, ncol=2)
-    out["fig15"] = _save(fig, fig_dir / "fig15_wire_equivalent.png")
-    # Fig. 16
-    ks, Hs = _H_list(curves, scale)
-    H_inf = _H_of(c("cylinder_rigid_seed0"))
-    fig, ax = _fig(1, 2, size=(9.5, 4.0))
-    if ks:
-        ax[0, 0].semilogx(ks, Hs, "o-", label="ours")
-    if H_inf is not None:
-        ax[0, 0].axhline(H_inf, color="k", ls="--", label="ours, rigid (H∞)")
-    ax[0, 0].set_xlabel("wire stiffness k [N]")
-    ax[0, 0].set_ylabel("H [Pa]")
-    ax[0, 0].legend(fontsize=8)
-    ax[0, 0].grid(alpha=0.3, which="both")
-    pk, pH = PAPER_VALUES["table2_k"], np.asarray(PAPER_VALUES["table2_H"], float)
-    ax[0, 1].semilogx(pk, pH / PAPER_VALUES["table2_H_inf"], "s-", color="0.4", label="paper")
-    if ks and H_inf:
-        ax[0, 1].semilogx(ks, np.asarray(Hs) / H_inf, "o-", label="ours")
-    ax[0, 1].axhline(1.0, color="k", ls="--", lw=0.8)
-    ax[0, 1].set_xlabel("wire stiffness k [N]")
-    ax[0, 1].set_ylabel("H / H∞")
-    ax[0, 1].legend(fontsize=8)
-    ax[0, 1].grid(alpha=0.3, which="both")
-    out["fig16"] = _save(fig, fig_dir / "fig16_H_vs_k.png")
-    return out
 
+    def want(key):
+        return _figure_wanted(key, chosen)
+
+    # Fig. 7
+    if want("fig07"):
+        labels, before, after = ["paper (400)"], [PAPER_VALUES["tortuosity"][0]], \
+            [PAPER_VALUES["tortuosity"][1]]
+        for d in (400, 800):
+            t = c(f"slope_w{d}_seed0")
+            if t is not None and "tortuosity_before" in t:
+                labels.append(f"ours ({d})")
+                before.append(float(t["tortuosity_before"]))
+                after.append(float(t["tortuosity_after"]))
+        out["fig07"] = figures.tortuosity_figure(labels, before, after, fig_dir / "fig07_tortuosity.png")
+    # Fig. 8-9
+    if want("fig08_09"):
+        t = c("slope_w400_seed0")
+        hb, ha = {}, {}
+        for pl in ("xy", "xz", "yz"):
+            for h, when in ((hb, "before"), (ha, "after")):
+                if t is not None and f"hist_{when}_{pl}_edges" in t:
+                    h[pl] = (t[f"hist_{when}_{pl}_edges"], t[f"hist_{when}_{pl}_weights"])
+                else:
+                    h[pl] = (np.linspace(0, np.pi, 19), np.zeros(18))
+        out["fig08_09"] = figures.directions_figure(hb, ha, fig_dir / "fig08_09_directions.png")
+    # Fig. 10
+    if want("fig10"):
+        profs, labs = [], []
+        for tag, lab in (("sand", "sand"), ("w400", "TexSol(1) 400 km/m³"),
+                         ("w800", "TexSol(2) 800 km/m³")):
+            t = c(f"slope_{tag}_seed0")
+            if t is not None:
+                profs.append(SimpleNamespace(r=t["r"], height=t["height"], pressure=t["pressure"],
+                                             height_fit=np.poly1d(t["height_fit"]),
+                                             pressure_fit=np.poly1d(t["pressure_fit"]),
+                                             max_slope_deg=float(t["max_slope_deg"])))
+                labs.append(lab)
+        if profs:
+            out["fig10"] = figures.slope_figure(profs, fig_dir / "fig10_slope.png", labels=labs)
+        else:
+            out["fig10"] = _empty(fig_dir / "fig10_slope.png", "Fig. 10: slope runs missing")
+    # Fig. 11
+    if want("fig11"):
+        t = c("box_rw1_seed0")
+        fig, ax = _fig(1, 2, size=(9.0, 4.0))
+        if t is not None and "wire_stress_upper" in t:
+            e = 100 * np.asarray(t["axial_strain"])
+            for a, half in zip(ax[0], ("upper", "lower")):
+                s = np.asarray(t[f"wire_stress_{half}"])
+                for i, comp in enumerate(("xx", "yy", "zz")):
+                    a.plot(e, s[:, i, i], label=f"σ_{comp}")
+                w = np.linalg.eigvalsh(np.where(np.isfinite(s), s, 0.0))
+                a.plot(e, w[:, 0], "k:", lw=0.8, label="min principal")
+                a.set_title(f"wire stress, {half} half (R_{half[0]})", fontsize=9)
+                a.set_xlabel("axial strain [%]")
+                a.grid(alpha=0.3)
+            ax[0, 0].set_ylabel("wire Weber stress [Pa] (tension > 0)")
+            ax[0, 0].legend(fontsize=8)
+        out["fig11"] = _save(fig, fig_dir / "fig11_wire_stress.png")
+    # Fig. 12
+    if want("fig12"):
+        fig, ax = _fig(1, 3, size=(10.0, 3.8))
+        for a, div in zip(ax[0], (1, 3, 4)):
+            t = c(f"box_rw{div}_seed0")
+            a.set_title(f"r_w = r_min{'' if div == 1 else f'/{div}'}", fontsize=9)
+            if t is None:
+                continue
+            x = np.arange(3)
+            for j, part in enumerate(("sand", "wire", "all")):
+                key = f"strain_{part}_principal"
+                if key in t:
+                    a.bar(x + (j - 1) * 0.27, 100 * np.asarray(t[key]), 0.27, label=part)
+            a.set_xticks(x, ["ε₁", "ε₂", "ε₃"])
+            a.grid(alpha=0.3, axis="y")
+        ax[0, 0].set_ylabel("principal strain [%] (extension > 0)")
+        if ax[0, 0].get_legend_handles_labels()[0]:
+            ax[0, 0].legend(fontsize=8)
+        out["fig12"] = _save(fig, fig_dir / "fig12_strains.png")
+    # Fig. 13 (matplotlib part: barrel profile and toroidal map)
+    if want("fig13"):
+        t = c("cylinder_k1_seed0")
+        fig, ax = _fig(1, 2, size=(9.0, 4.2))
+        if t is not None:
+            if "barrel_r_last" in t:
+                ax[0, 0].plot(1e3 * t["barrel_r_first"], 1e3 * t["barrel_z_first"], "o-", label="start")
+                ax[0, 0].plot(1e3 * t["barrel_r_last"], 1e3 * t["barrel_z_last"], "o-", label="end")
+                ax[0, 0].set_xlabel("outer radius [mm]")
+                ax[0, 0].set_ylabel("height [mm]")
+                ax[0, 0].legend(fontsize=8)
+                ax[0, 0].set_title("barrel shape", fontsize=9)
+            if "torus_equivalent" in t:
+                re_, ze = 1e3 * t["torus_r_edges"], 1e3 * t["torus_z_edges"]
+                im = ax[0, 1].pcolormesh(re_, ze, np.ma.masked_invalid(t["torus_equivalent"]).T,
+                                         cmap="viridis")
+                fig.colorbar(im, ax=ax[0, 1], label="σ_w^eq [Pa]")
+                ax[0, 1].set_xlabel("r [mm]")
+                ax[0, 1].set_ylabel("z [mm]")
+                ax[0, 1].set_title(f"toroidal map at ε = {float(t['torus_strain']):.0%}", fontsize=9)
+        out["fig13"] = _save(fig, fig_dir / "fig13_cylinder.png")
+    # Fig. 14
+    if want("fig14"):
+        res, labs = [], []
+        for tag, lab in (("sand", "sand"), ("k0.2", "elastic k=0.2 N"), ("rigid", "rigid")):
+            for s in scale.fig14_seeds:
+                t = c(f"cylinder_{tag}_seed{s}")
+                if t is not None:
+                    res.append(_res(t, lab))
+                    labs.append(f"{lab}, seed {s}")
+        if res:
+            out["fig14"] = figures.stress_strain_figure(res, fig_dir / "fig14_stress_strain.png",
+                                                        labels=labs, title="Fig. 14: cylinder triaxial")
+        else:
+            out["fig14"] = _empty(fig_dir / "fig14_stress_strain.png", "Fig. 14: runs missing")
+    # Fig. 15
+    if want("fig15"):
+        fig, ax = _fig()
+        a = ax[0, 0]
+        for tag in [f"k{_fmt_k(k)}" for k in scale.k_list] + ["rigid"]:
+            t = c(f"cylinder_{tag}_seed0")
+            if t is None:
+                continue
+            e = np.asarray(t["axial_strain"])
+            line, = a.plot(100 * e, t["wire_equivalent"], lw=1, label=tag)
+            f = h_fit(e, t["wire_equivalent"])
+            if f is not None:
+                xs = e[f["start"]:]
+                a.plot(100 * xs, f["H"] * xs + f["intercept"], "--", color=line.get_color(), lw=0.8)
+        a.set_xlabel("axial strain ε_zz [%]")
+        a.set_ylabel("wire equivalent stress ‖dev σ_w‖ [Pa]")
+        a.grid(alpha=0.3)
+        a.legend(fontsize=7, ncol=2)
+        out["fig15"] = _save(fig, fig_dir / "fig15_wire_equivalent.png")
+    # Fig. 16
+    if want("fig16"):
+        ks, Hs = _H_list(curves, scale)
+        H_inf = _H_of(c("cylinder_rigid_seed0"))
+        fig, ax = _fig(1, 2, size=(9.5, 4.0))
+        if ks:
+            ax[0, 0].semilogx(ks, Hs, "o-", label="ours")
+        if H_inf is not None:
+            ax[0, 0].axhline(H_inf, color="k", ls="--", label="ours, rigid (H∞)")
+        ax[0, 0].set_xlabel("wire stiffness k [N]")
+        ax[0, 0].set_ylabel("H [Pa]")
+        ax[0, 0].legend(fontsize=8)
+        ax[0, 0].grid(alpha=0.3, which="both")
+        pk, pH = PAPER_VALUES["table2_k"], np.asarray(PAPER_VALUES["table2_H"], float)
+        ax[0, 1].semilogx(pk, pH / PAPER_VALUES["table2_H_inf"], "s-", color="0.4", label="paper")
+        if ks and H_inf:
+            ax[0, 1].semilogx(ks, np.asarray(Hs) / H_inf, "o-", label="ours")
+        ax[0, 1].axhline(1.0, color="k", ls="--", lw=0.8)
+        ax[0, 1].set_xlabel("wire stiffness k [N]")
+        ax[0, 1].set_ylabel("H / H∞")
+        ax[0, 1].legend(fontsize=8)
+        ax[0, 1].grid(alpha=0.3, which="both")
+        out["fig16"] = _save(fig, fig_dir / "fig16_H_vs_k.png")
+    return out
 
 def _empty(path, text):
     fig, ax = _fig()
@@ -1118,8 +1131,7 @@ def build_report(out="out/paper", scale="default", *, scheduler=None, progress=T
     runs = None if chosen is None else set(rows)
     if chosen is not None:
         claims = [c for c in claims if c.id in chosen]
-    figs = {k: v for k, v in make_figures(curves, scale, fig_dir).items()
-            if _figure_wanted(k, chosen)}
+    figs = make_figures(curves, scale, fig_dir, chosen)
     problems = []
     if render:
         snaps, pr = snapshots(runs_dir, fig_dir, runs)

@@ -247,7 +247,9 @@ def test_nscd_paper_tiny(tmp_path):
     assert p2.returncode == 0, p2.stderr[-3000:]
     n = len(cases_for(SCALES["tiny"]))
     assert f"{n} cases, {n} already done, 0 to run" in p2.stdout
-    # --only fig14: its 6 runs reused, its claims and figure alone
+    # --only fig14: its 6 runs reused, its claims and figure alone; the other figure files
+    # of the full build are left as they are
+    fig07 = (out / "figures" / "fig07_tortuosity.png").stat().st_mtime_ns
     p3 = subprocess.run(cmd + ["--scheduler", "serial", "--no-render", "--only", "fig14"],
                         capture_output=True, text=True, timeout=300)
     assert p3.returncode == 0, p3.stderr[-3000:]
@@ -258,6 +260,7 @@ def test_nscd_paper_tiny(tmp_path):
     assert ids == ["fig14-k0.2", "fig14-rigid", "fig14-order"]
     assert re.findall(r"figures/(\w+)\.png", report) == ["fig14_stress_strain"]
     assert "## Table 2" not in report and "series/" not in report
+    assert (out / "figures" / "fig07_tortuosity.png").stat().st_mtime_ns == fig07
     assert len(re.findall(r"^\| cylinder_\w+\.?\w* \| done", report, re.M)) == 6
 
 

@@ -31,7 +31,9 @@ from __future__ import annotations
 from typing import ClassVar
 
 import numpy as np
-from pydantic import BaseModel, ConfigDict, Field
+from pydantic import ConfigDict, Field
+
+from .checks import Checked
 
 #: Law codes seen by the kernels.
 COULOMB = 0
@@ -44,7 +46,7 @@ ELASTIC_WIRE = 4
 N_PARAM = 4
 
 
-class Law(BaseModel):
+class Law(Checked):
     """Base of all laws: frozen, validated (a bad value raises ``ValueError``)."""
 
     model_config = ConfigDict(frozen=True, extra="forbid")
@@ -72,7 +74,7 @@ class Coulomb(Law):
     """
 
     code: ClassVar[int] = COULOMB
-    mu: float = Field(ge=0.0, description="friction coefficient [-]")
+    mu: float = Field(ge=0.0, allow_inf_nan=False, description="friction coefficient [-]")
 
     def params(self) -> tuple[float, ...]:
         return (self.mu, 0.0, 0.0, 0.0)

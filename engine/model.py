@@ -9,7 +9,9 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 import numpy as np
-from pydantic import BaseModel, ConfigDict, Field, field_validator, model_validator
+from pydantic import ConfigDict, Field, field_validator, model_validator
+
+from .checks import Checked
 
 #: ``body_kind`` codes.
 SPHERE, PLANE, CYLINDER = 0, 1, 2
@@ -27,7 +29,7 @@ CAP_BOTTOM, CAP_TOP = 1, 2
 DYN_INV_MASS, DYN_INV_INERTIA, DYN_RADIUS, DYN_LINE, DYN_LX, DYN_LY, DYN_LZ = range(7)
 
 
-class Options(BaseModel):
+class Options(Checked):
     """Time-stepping and solver options, validated (a bad value raises ``ValueError``
     naming the field and its allowed range).
 

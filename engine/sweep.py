@@ -202,13 +202,19 @@ def _paper_test(name):
 
 def _check_paper_cases(name, cases, fixed) -> None:
     """Refuse, before anything runs, a case of a paper test with a parameter the test does
-    not take or a wire it cannot build (naming the case and the allowed names)."""
+    not take, a wire it cannot build, a bad scale or solver options out of range (naming
+    the case, the field and the allowed values): such a case would fail the same way on
+    every attempt."""
     import inspect
 
     from . import experiments
+    from .experiments.common import check_scale, solver_choice
+    from .model import Options
 
-    own = set(inspect.signature(getattr(experiments, name)).parameters)
+    sig = inspect.signature(getattr(experiments, name)).parameters
+    own = set(sig)
     allowed = (own - {"wire_law"}) | {"k", "history_dir"}      # the law comes from wire, k
+    solver = [n for n in Options.model_fields if n in own]     # dt, theta, tol, max_iter ...
     for c in cases:
         params = dict(fixed, **c)
         bad = sorted(set(params) - allowed)
@@ -217,6 +223,11 @@ def _check_paper_cases(name, cases, fixed) -> None:
                              f"parameters are {', '.join(sorted(allowed))}")
         try:
             _law(params.get("wire", "elastic"), params.get("k"))
+            check_scale(params.get("scale", sig["scale"].default))
+            opts = {n: params.get(n, sig[n].default) for n in solver}
+            opts["anderson"], opts["hot_sweeps"] = solver_choice(opts["anderson"],
+                                                                 opts["hot_sweeps"])
+            Options(**opts, alert=0.0, skin=1.0)      # alert, skin: placeholders, not checked
         except ValueError as e:
             raise ValueError(f"{name}, case {c}: {e}") from None
 

@@ -173,11 +173,16 @@ def test_a_cluster_without_workers_fails_the_cases_instead_of_hanging(tmp_path):
 
 def test_named_experiment_rejects_bad_input_before_running(tmp_path):
     """A paper test's case with a wire it cannot build, a stiffness that is not a positive
-    number, or a parameter the test does not take is refused before any case runs (no
-    table written), naming the case or the parameter and listing the allowed names."""
+    number, a parameter the test does not take, a solver option out of range or a bad scale
+    is refused before any case runs (no table written), naming the case or the parameter
+    and listing the allowed names or values."""
     bad = [({"scale": [0.03], "wire": ["elastic", "steel"]}, r"case \{.*'steel'\}: wire must"),
            ({"k": ["abc"]}, "k must be the elastic wire's stiffness in N"),
-           ({"k": [-1.0]}, "greater than 0"),
+           ({"k": [-1.0]}, r"stiffness = -1.0: must be a finite number > 0"),
+           ({"scale": [0.03], "dt": [1e-4, -1.0]}, r"case \{.*'dt': -1.0\}: Options: dt = -1.0: "
+                                                   r"must be a finite number > 0"),
+           ({"scale": [0.03], "theta": [0.3]}, r"theta = 0.3: must be a number in \[0.5, 1\]"),
+           ({"scale": [0.0]}, r"scale must be finite and > 0"),
            ({"scale": [0.03], "frictoin": [0.3]}, "takes no parameter 'frictoin'; its "
                                                    "parameters are .*mu_wire")]
     for grid, says in bad:

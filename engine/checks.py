@@ -1,0 +1,124 @@
+"""Validated records whose errors read as one clear line per field.
+
+Options, laws and the ``nscd run`` configuration files are pydantic models.  Pydantic's own
+message spans several lines per field, names one bound of a range ("Input should be
+greater than or equal to 0.5") and ends with a link.  :class:`Checked` models raise
+:class:`InputError` (a ``ValueError``) instead, one item per problem, each naming the
+field, the value given and the allowed range read from the field's constraints::
+
+    Options: theta = 0.3: must be a number in [0.5, 1]
+    ElasticWire: stiffness = 0.0: must be a finite number > 0
+    Coulomb: mu_ = 0.3: unknown field (the fields are: mu)
+
+:func:`describe` formats one pydantic error the same way (the CLI lists a file's problems
+one per line with it).
+"""
+from __future__ import annotations
+
+import types
+import typing
+
+import annotated_types as at
+from pydantic import BaseModel, ValidationError
+
+__all__ = ["Checked", "InputError", "allowed", "describe", "explain"]
+
+
+class InputError(ValueError):
+    """A validated record refused its input; the message names every field at fault."""
+
+
+def _num(x) -> str:
+    return f"{x:g}" if isinstance(x, float) else str(x)
+
+
+def allowed(cls, name: str) -> str | None:
+    """The allowed values of field ``name`` of model ``cls`` in words ("a number in
+    [0.5, 1]", "an integer >= 1", "a finite number > 0"), or None without constraints."""
+    f = cls.model_fields.get(name)
+    if f is None:
+        return None
+    lo = hi = None
+    finite = False
+    for m in f.metadata:
+        if isinstance(m, at.Ge):
+            lo = ("[", m.ge)
+        elif isinstance(m, at.Gt):
+            lo = ("(", m.gt)
+        elif isinstance(m, at.Le):
+            hi = ("]", m.le)
+        elif isinstance(m, at.Lt):
+            hi = (")", m.lt)
+        elif getattr(m, "allow_inf_nan", True) is False:
+            finite = True
+    ann = f.annotation
+    args = [a for a in typing.get_args(ann) if a is not type(None)]
+    if typing.get_origin(ann) in (typing.Union, types.UnionType) and len(args) == 1:
+        ann = args[0]                                     # Optional[float] -> float
+    if typing.get_origin(ann) is typing.Literal:
+        return "one of " + ", ".join(repr(a) for a in typing.get_args(ann))
+    if ann is int:
+        kind = "an integer"
+    elif ann is float:
+        kind = "a finite number" if finite and (lo is None or hi is None) else "a number"
+    else:
+        kind = "a value"
+    if lo is not None and hi is not None:
+        return f"{kind} in {lo[0]}{_num(lo[1])}, {_num(hi[1])}{hi[0]}"
+    if lo is not None:
+        return f"{kind} {'>=' if lo[0] == '[' else '>'} {_num(lo[1])}"
+    if hi is not None:
+        return f"{kind} {'<=' if hi[0] == ']' else '<'} {_num(hi[1])}"
+    return kind if ann is float and finite else None
+
+
+def _owner(cls, loc):
+    """The model class holding the last element of ``loc`` (nested models followed)."""
+    for part in loc[:-1]:
+        f = cls.model_fields.get(part) if isinstance(part, str) else None
+        ann = getattr(f, "annotation", None)
+        if isinstance(ann, type) and issubclass(ann, BaseModel):
+            cls = ann
+        else:
+            return None
+    return cls
+
+
+def describe(err: dict, cls, prefix: str = "") -> str:
+    """One pydantic error (an item of ``ValidationError.errors()``) of model ``cls`` as
+    ``field = value: what is allowed``."""
+    loc = tuple(err.get("loc", ()))
+    field = prefix + ".".join(str(x) for x in loc)
+    typ = err.get("type", "")
+    msg = err.get("msg", "")
+    owner = _owner(cls, loc) if loc else None
+    name = loc[-1] if loc else None
+    if typ == "extra_forbidden":
+        names = ", ".join(owner.model_fields) if owner is not None else "?"
+        return f"{field} = {err.get('input')!r}: unknown field (the fields are: {names})"
+    rng = allowed(owner, name) if owner is not None and isinstance(name, str) else None
+    if typ == "missing":
+        return f"{field}: required" + (f", {rng}" if rng else "")
+    if typ == "value_error":  # a validator's own message, already in words
+        text = msg.removeprefix("Value error, ")
+        if not loc:  # a check across fields
+            return f"{prefix.rstrip('.')}: {text}" if prefix else text
+        return text if text.startswith(str(name)) else f"{field}: {text}"
+    got = err.get("input")
+    what = f"must be {rng}" if rng else msg[:1].lower() + msg[1:]
+    return f"{field} = {got!r}: {what}"
+
+
+def explain(e: ValidationError, cls, prefix: str = "") -> str:
+    """Every error of ``e`` on one line, ``; ``-separated, after the model's name."""
+    return f"{cls.__name__}: " + "; ".join(describe(x, cls, prefix) for x in e.errors())
+
+
+class Checked(BaseModel):
+    """A pydantic model raising :class:`InputError` with :func:`explain`'s message."""
+
+    def __init__(self, **data):
+        try:
+            super().__init__(**data)
+        except ValidationError as e:
+            raise InputError(explain(e, type(self))) from None

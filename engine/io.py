@@ -433,7 +433,8 @@ def load(path, frame: int = -1, callables: dict | None = None) -> tuple[Model, S
     ----------
     path : str or path
     frame : int
-        History files only: the frame whose state is rebuilt (default the last).  That
+        History files: the frame whose state is rebuilt (default the last; a checkpoint's
+        one state is frame -1 or 0, any other value is refused).  That
         state has positions, velocities, spins, time, step, link impulses and contacts
         (for rendering and analysis) but no warm start: it is not a bit-identical restart
         point.
@@ -451,6 +452,9 @@ def load(path, frame: int = -1, callables: dict | None = None) -> tuple[Model, S
         kind = _check_root(f, path)
         model = _read_model(f["model"], callables)
         if kind == "checkpoint":
+            if frame not in (-1, 0):
+                raise _BadArgument(f"{path} is a checkpoint, which holds one state: frame="
+                                   f"{frame!r} applies to history files only (use -1 or 0)")
             return model, _read_state(f["state"], model)
         return model, _state_from_frame(f, model, frame)
 
@@ -558,6 +562,7 @@ class History:
         self._buf: dict[str, list] = {}
         self._last_flush = None
         self._step_seen = None
+        self._recorded_step = self._framed_step = None
         self.n_records = 0
         self.n_frames = 0
 
@@ -581,6 +586,21 @@ class History:
             self.flush()
         elif state.step - self._last_flush >= self.flush_every:
             self.flush()
+
+    def write_final(self, model, state) -> None:
+        """Record the state reached, and write its frame when the history has frames, unless
+        this step was recorded (framed) already: a run whose last step falls between two
+        triggers keeps its end state.  Then flush."""
+        if self._file is None:
+            raise ValueError(f"History({self.path!r}) is closed")
+        if not self._ready:
+            self._setup(model, state)
+        self._step_seen = state.step
+        if self._recorded_step != state.step:
+            self._record(model, state)
+        if self.frames and self._framed_step != state.step:
+            self._frame(model, state)
+        self.flush()
 
     def flush(self) -> None:
         """Append the buffered records and flush the file to disk."""
@@ -654,6 +674,7 @@ class History:
         self._ready = True
 
     def _record(self, model, state) -> None:
+        self._recorded_step = state.step
         st = state.stats
         row = {"time": state.time, "step": state.step,
                "kinetic_energy": kinetic_energy(model, state), "iterations": st.iterations,
@@ -671,6 +692,7 @@ class History:
             self._buf[name].append(v)
 
     def _frame(self, model, state) -> None:
+        self._framed_step = state.step
         fg = self._file["frames"]
         c = state.contacts
         k = len(c)

@@ -69,6 +69,8 @@ class TestResult:
         c = self.convergence
         s = (f"{self.name}: {len(self.time)} records, {c.get('steps', 0)} steps, "
              f"{c.get('non_converged', 0)} not converged ({c.get('share', 0):.1%}); ")
+        if self.params.get("iso_reached") is False:
+            s += "isotropic stage NOT reached (see the warning); "
         if len(self.time):
             s += (f"final axial strain {self.axial_strain[-1]:.4f}, deviator "
                   f"{self.deviator[-1]:.4g} Pa, mean stress {self.mean_stress[-1]:.4g} Pa; ")
@@ -157,6 +159,15 @@ class Stages:
             self.interrupted = True
         return not s.interrupted
 
+    def record_last(self):
+        """The state reached, to every writer that has not recorded this step
+        (``write_final``): a test ends between two records (its step count is rarely a
+        multiple of ``record_every``, or Ctrl-C stopped it), and its end state is kept."""
+        for w in self.writers:
+            final = getattr(w, "write_final", None)
+            if final is not None:
+                final(self.model, self.state)
+
     def close(self):
         if self.bar is not None:
             self.bar.close()
@@ -179,15 +190,22 @@ class Recorder:
         self.rows = {k: [] for k in fns}
         self.last = {}
         self.active = True
+        self.written_step = None
 
     def trigger(self, step):
         return self.active and step % self.every == 0
 
     def write(self, model, state):
+        self.written_step = state.step
         for k, fn in self.fns.items():
             v = fn(model, state)
             self.last[k] = v
             self.rows[k].append(v)
+
+    def write_final(self, model, state):
+        """:meth:`write` unless this step is recorded already or recording is off."""
+        if self.active and self.written_step != state.step:
+            self.write(model, state)
 
     def array(self, k):
         return np.asarray(self.rows[k])

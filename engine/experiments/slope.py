@@ -165,6 +165,7 @@ def slope_deposit(scale: float = 0.02, *, wire: bool = True, wire_density: float
             if stages.steps >= 10 * record_every and peak > 0 and ke <= ke_fraction * peak:
                 at_rest = True
                 break
+        stages.record_last()
     finally:
         stages.close()
         hist.close()

@@ -32,6 +32,7 @@ from __future__ import annotations
 
 import math
 import os
+import warnings
 
 import numpy as np
 
@@ -284,6 +285,7 @@ def cylinder_triaxial(scale: float = 0.05, *, pressure: float = 15e3, wire: bool
             while targets and wire and (eps >= targets[0] or (last and targets[0] >= eps_max - 1e-12)):
                 e = targets.pop(0)
                 maps[e] = toroidal_map(model, state, Cylinder(conf.radius, H), part="wire")
+        stages.record_last()
     finally:
         stages.close()
         hist.close()
@@ -317,8 +319,11 @@ def _isotropic(stages, every, max_steps, ramp_steps, p, set_pressure, measure, i
     """Stage 1: raise the pressure linearly over ``ramp_steps`` (a sudden p on a loose
     sample throws its outer grains in at metres per second), then run until every stress
     ``measure()`` returns is within ``iso_tol`` of p for ``iso_hold`` consecutive checks
-    ``every`` steps apart.  Returns whether it got there within ``max_steps``."""
+    ``every`` steps apart.  Returns whether it got there within ``max_steps``; if not, a
+    RuntimeWarning says so with the stresses reached (the loading then starts from there,
+    and the result's ``params["iso_reached"]`` is False)."""
     ok_count, n = 0, 0
+    values = ()
     while n < max_steps:
         if not stages.run(every):
             break
@@ -330,7 +335,14 @@ def _isotropic(stages, every, max_steps, ramp_steps, p, set_pressure, measure, i
         ok_count = ok_count + 1 if ok else 0
         if ok_count >= iso_hold:
             break
-    return ok_count >= iso_hold
+    reached = ok_count >= iso_hold
+    if not reached and not stages.interrupted:
+        got = ", ".join(f"{v:.4g}" for v in values)
+        warnings.warn(f"the isotropic stage did not reach {p:.4g} Pa (within {iso_tol:.0%} "
+                      f"for {iso_hold} checks) in {n} steps (iso_max_steps = {max_steps}): the "
+                      f"stresses were {got} Pa; the loading starts from there. Raise "
+                      f"iso_max_steps", RuntimeWarning, stacklevel=3)
+    return reached
 
 
 def model_mass(sample, density=2650.0):
@@ -367,6 +379,7 @@ class _SplitRecorder(Recorder):
                                       "volume", "radius", "time", "step")}
 
     def write(self, model, state):
+        self.written_step = state.step
         v = self.fn(model, state)
         for k, x in v.items():
             self.last[k] = x
@@ -547,6 +560,7 @@ def box_triaxial(scale: float = 0.05, *, pressure: float = 15e3, wire: bool = Tr
         n_load = int(math.ceil(eps_max / (rate * dt)))
         if not stages.interrupted:
             stages.run(n_load)
+        stages.record_last()
         sand_ids = np.asarray(sand)
         for name, sel in (("sand", sand_ids), ("wire", bead_ids),
                           ("all", np.concatenate([sand_ids, bead_ids]))):

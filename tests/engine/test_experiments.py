@@ -142,7 +142,35 @@ def test_particle_frames_fall_on_records(tmp_path):
     r = box_triaxial(0.02, axial_strain=0.002, frames=6, record_every=10, iso_max_steps=60,
                      history=str(tmp_path / "b.h5"), progress=False, max_nonconverged=1.0)
     h = rh(r.history)
-    assert h.n_frames >= 3 and np.all(np.asarray(h.frame_step) % 10 == 0)
+    fs = np.asarray(h.frame_step)
+    assert h.n_frames >= 3 and np.all(fs[:-1] % 10 == 0)
+    assert fs[-1] == h.step[-1] == r.step[-1]        # and the end state (Stages.record_last)
+
+
+@pytest.mark.parametrize("name", ["cyl", "box"])
+def test_the_end_state_is_recorded(name, request):
+    """The loading ends at ceil(ε_max / (ε̇ h)) steps, rarely on a multiple of record_every:
+    the end state is recorded all the same (it was dropped: 0.0043 for 0.005 asked), so the
+    last record's strain is the requested one within one step's strain ε̇ h, and the
+    history's last record and frame are that state."""
+    r = request.getfixturevalue(name)
+    eps, step_strain = r.params["axial_strain"], r.params["strain_rate"] * r.params["dt"]
+    assert abs(r.axial_strain[-1] - eps) <= 1.01 * step_strain
+    h = read_history(r.history, frames=True)
+    assert h.step[-1] == r.step[-1] and h.frame_step[-1] == r.step[-1]
+    assert np.all(np.diff(h.step) > 0)                    # no record written twice
+
+
+def test_isotropic_stage_not_reached_is_said(tmp_path):
+    """An isotropic stage cut short by iso_max_steps warns with the stresses reached, and
+    the result says so (its loading started below the confining pressure)."""
+    with pytest.warns(RuntimeWarning, match=r"did not reach 1.5e\+04 Pa .* in 30 steps "
+                                            r"\(iso_max_steps = 30\): the stresses were"):
+        r = cylinder_triaxial(0.04, axial_strain=0.002, iso_max_steps=30, progress=False,
+                              history=str(tmp_path / "c.h5"))
+    assert r.params["iso_reached"] is False and not r.extra["isotropic"]["reached"]
+    assert r.mean_stress[0] < 0.5 * P
+    assert "isotropic stage NOT reached" in str(r)
 
 
 def test_compaction_friction_holds_in_the_isotropic_stage_only(monkeypatch, tmp_path):

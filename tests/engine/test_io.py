@@ -190,6 +190,40 @@ def test_checkpoint_writer_saves_on_its_trigger(tmp_path):
     assert io.load(tmp_path / "c_0020.h5")[1].step == 20
 
 
+def test_history_write_final_keeps_the_end_state_once(tmp_path):
+    """A run of 25 steps recorded every 10 with frames every 20: write_final adds the end
+    state (step 25) as a record and a frame, with the same values the writer records at a
+    trigger (time, kinetic energy), and writes nothing more when called again or when the
+    end step was recorded already."""
+    model, state = scene()
+    h = io.History(tmp_path / "h.h5", trigger=10, frames=20)
+    with _Quiet():
+        run(model, state, 25, writers=[h], progress=False)
+    h.write_final(model, state)
+    h.write_final(model, state)
+    h.close()
+    d = io.read_history(tmp_path / "h.h5")
+    assert d.step.tolist() == [10, 20, 25] and d.frame_step.tolist() == [20, 25]
+    assert d.time[-1] == pytest.approx(25 * model.options.dt, rel=1e-12)
+    assert d.kinetic_energy[-1] == io.kinetic_energy(model, state)
+    np.testing.assert_array_equal(io.load(tmp_path / "h.h5", frame=-1)[1].position,
+                                  state.position)
+    h2 = io.History(tmp_path / "h2.h5", trigger=10, frames=20)
+    with _Quiet():
+        run(model, state, 15, writers=[h2], progress=False)    # steps 26..40: 30, 40 recorded
+    h2.write_final(model, state)
+    h2.close()
+    d2 = io.read_history(tmp_path / "h2.h5")
+    assert d2.step.tolist() == [30, 40] and d2.frame_step.tolist() == [40]
+
+
+def test_a_checkpoint_refuses_a_frame_other_than_its_state(checkpoint):
+    assert io.load(checkpoint, frame=0)[1].step == io.load(checkpoint)[1].step == 5
+    with pytest.raises(ValueError, match=r"is a checkpoint, which holds one state: frame=3 "
+                                         r"applies to history files only"):
+        io.load(checkpoint, frame=3)
+
+
 # -- bad files ------------------------------------------------------------------------------
 @pytest.fixture
 def checkpoint(tmp_path):

@@ -33,7 +33,9 @@ field and the allowed range; nothing runs then.
 from __future__ import annotations
 
 import argparse
+import os
 import sys
+import warnings
 from pathlib import Path
 from typing import Literal, Optional
 
@@ -126,17 +128,15 @@ class ConfigError(ValueError):
     pass
 
 
-def _format_errors(e: ValidationError, prefix="") -> str:
-    lines = []
-    for err in e.errors():
-        loc = ".".join(str(x) for x in err["loc"])
-        got = err.get("input")
-        lines.append(f"  {prefix}{loc}: {err['msg']} (got {got!r})")
-    return "\n".join(lines)
+def _format_errors(e: ValidationError, cls, prefix="") -> list[str]:
+    from engine.checks import describe
+
+    return [f"  {describe(err, cls, prefix)}" for err in e.errors()]
 
 
 def load_config(path) -> tuple[RunConfig, BaseModel]:
-    """Read and validate a TOML run file; ConfigError lists every problem."""
+    """Read and validate a TOML run file; ConfigError lists every problem, those of the
+    top level and those of ``[parameters]`` together."""
     import tomllib
 
     try:
@@ -144,20 +144,57 @@ def load_config(path) -> tuple[RunConfig, BaseModel]:
             raw = tomllib.load(f)
     except FileNotFoundError:
         raise ConfigError(f"{path}: no such file")
+    except IsADirectoryError:
+        raise ConfigError(f"{path}: is a directory, not a TOML file")
+    except UnicodeDecodeError as e:
+        raise ConfigError(f"{path}: not a text file (not UTF-8: {e.reason} at byte {e.start})")
     except tomllib.TOMLDecodeError as e:
         raise ConfigError(f"{path}: not valid TOML: {e}")
     problems = []
+    cfg = None
     try:
         cfg = RunConfig(**raw)
     except ValidationError as e:
-        raise ConfigError(f"{path}: {e.error_count()} problem(s)\n" + _format_errors(e))
-    try:
-        params = _PARAMS[cfg.test](**cfg.parameters)
-    except ValidationError as e:
-        problems.append(_format_errors(e, "parameters."))
+        problems += _format_errors(e, RunConfig)
+    test = cfg.test if cfg is not None else raw.get("test")
+    params = None
+    if test in _PARAMS and isinstance(raw.get("parameters", {}), dict):
+        try:
+            params = _PARAMS[test](**raw.get("parameters", {}))
+        except ValidationError as e:
+            problems += _format_errors(e, _PARAMS[test], "parameters.")
     if problems:
-        raise ConfigError(f"{path}: problem(s) in [parameters] of {cfg.test}\n" + "\n".join(problems))
+        where = f" ({test})" if test in _PARAMS else ""
+        raise ConfigError(f"{path}: {len(problems)} problem(s){where}\n" + "\n".join(problems))
     return cfg, params
+
+
+def config_help() -> str:
+    """The TOML format of ``nscd run`` and every test's parameters with their defaults and
+    allowed values, read from the validating models (``nscd run --help``)."""
+    from engine.checks import allowed
+
+    lines = ["A TOML file: test, scale, seed, [parameters] (the test's keyword arguments) "
+             "and [wire]:", ""]
+    lines += ["  " + x for x in __doc__.split("A TOML file for ``nscd run``::")[1]
+              .split("Unknown keys")[0].strip("\n").splitlines()]
+
+    def table(cls, skip=()):
+        out = []
+        for name, f in cls.model_fields.items():
+            if name in skip:
+                continue
+            rng = allowed(cls, name)
+            default = "required" if f.is_required() else f"default {f.default!r}"
+            desc = f" — {f.description}" if f.description else ""
+            out.append(f"  {name}: {default}" + (f"; {rng}" if rng else "") + desc)
+        return out
+
+    lines += (["", "Top level:"] + table(RunConfig, skip=("parameters", "wire"))
+              + ["", "[wire]:"] + table(WireConfig))
+    for test, cls in _PARAMS.items():
+        lines += ["", f"[parameters] of {test}:"] + table(cls)
+    return "\n".join(lines)
 
 
 def run_config(cfg: RunConfig, params: BaseModel, out: Path, progress=True):
@@ -172,7 +209,6 @@ def run_config(cfg: RunConfig, params: BaseModel, out: Path, progress=True):
         kw["wire"] = True
         kw["wire_law"] = (laws.RigidWire() if cfg.wire.law == "rigid"
                           else laws.ElasticWire(stiffness=cfg.wire.stiffness))
-    out.mkdir(parents=True, exist_ok=True)
     return fn(cfg.scale, seed=cfg.seed, history=str(out / "run.h5"), progress=progress, **kw)
 
 
@@ -247,6 +283,10 @@ def figures_of(result, out: Path) -> list[Path]:
     return paths
 
 
+def _count(n, noun) -> str:
+    return f"{n} {noun}" + ("" if n == 1 else "s")
+
+
 def info(path) -> str:
     import numpy as np
 
@@ -256,7 +296,7 @@ def info(path) -> str:
     model = io.load_model(path)
     lines = [f"{path}: nscd-workbench {content}, format version {version}",
              f"  bodies {model.n_bodies} ({len(model.sphere_ids)} spheres, "
-             f"{len(model.wall_ids)} walls), links {model.n_links}, groups "
+             f"{_count(len(model.wall_ids), 'wall')}), links {model.n_links}, groups "
              f"{', '.join(model.group_names)}",
              f"  options: dt={model.options.dt:g} s, theta={model.options.theta}, "
              f"tol={model.options.tol:g}, max_iter={model.options.max_iter}"]
@@ -282,8 +322,17 @@ def info(path) -> str:
 def cmd_demo(a) -> int:
     from engine.experiments import cylinder_triaxial
 
+    problems = []  # the run file's checks, before anything is written
+    for cls, kw in ((RunConfig, dict(test="cylinder_triaxial", scale=a.scale)),
+                    (CylinderParams, dict(axial_strain=a.strain))):
+        try:
+            cls(**kw)
+        except ValidationError as e:
+            problems += [x.strip().replace("axial_strain", "--strain", 1)
+                         .replace("scale", "--scale", 1) for x in _format_errors(e, cls)]
+    if problems:
+        raise ConfigError("; ".join(problems))
     out = Path(a.out)
-    out.mkdir(parents=True, exist_ok=True)
     print(f"nscd demo: a TexSol cylinder triaxial test at scale {a.scale} -> {out}/")
     res = cylinder_triaxial(a.scale, axial_strain=a.strain, history=str(out / "run.h5"),
                             frames=50, progress=True)
@@ -393,8 +442,11 @@ def parser() -> argparse.ArgumentParser:
     d.add_argument("--scale", type=float, default=0.1, help="sample scale (1 = paper)")
     d.add_argument("--strain", type=float, default=0.05, help="final axial strain")
     d.set_defaults(fn=cmd_demo)
-    r = sub.add_parser("run", help="run a test from a TOML configuration file")
-    r.add_argument("config", help="TOML file (see `python -m workbench.cli --help`)")
+    r = sub.add_parser("run", help="run a test from a TOML configuration file",
+                       description="Run a test from a validated TOML file (every problem is "
+                                   "reported before anything runs).",
+                       epilog=config_help(), formatter_class=argparse.RawDescriptionHelpFormatter)
+    r.add_argument("config", help="TOML file (its keys below)")
     r.add_argument("--out", help="output directory (default out/<config stem>)")
     r.set_defaults(fn=cmd_run)
     g = sub.add_parser("render", help="render one frame of a run to PNG (off-screen)")
@@ -445,12 +497,37 @@ def parser() -> argparse.ArgumentParser:
 
 
 def main(argv=None) -> int:
+    """Exit codes: 0 done; 1 a run failed (it did not converge, the sample came apart, a
+    value became NaN: the message says where the history is); 2 bad input (a file, a
+    parameter); one line on stderr, no traceback, in both error cases."""
+    from engine.experiments import ConfinementError, ConvergenceError
+    from engine.step import SimulationError
+
     a = parser().parse_args(argv)
+
+    def one_line(message, category, filename, lineno, file=None, line=None):
+        from tqdm import tqdm  # above a progress bar, not inside it
+
+        tqdm.write(f"nscd {a.command}: warning: {message}", file=file or sys.stderr)
+
+    show, warnings.showwarning = warnings.showwarning, one_line
     try:
         return a.fn(a)
-    except (ValueError, FileNotFoundError) as e:
+    except (ConvergenceError, ConfinementError, SimulationError) as e:
+        print(f"nscd {a.command}: the run failed: {e}", file=sys.stderr)
+        return 1
+    except ValueError as e:
         print(f"nscd {a.command}: {e}", file=sys.stderr)
         return 2
+    except BrokenPipeError:  # `nscd info RUN.h5 | head`: the reader left, nothing to say
+        os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
+        return 1
+    except OSError as e:  # a path that is a directory, exists already, cannot be written ...
+        where = f"{e.filename}: " if e.filename else ""
+        print(f"nscd {a.command}: {where}{e.strerror or e}", file=sys.stderr)
+        return 2
+    finally:
+        warnings.showwarning = show
 
 
 if __name__ == "__main__":

@@ -509,12 +509,22 @@ def plotter(model, state, preset: str = "beads", *, camera="iso", window_size=WI
 def snapshot(model, state, path, preset: str = "beads", *, camera="iso",
              window_size=WINDOW_SIZE, **options) -> Path:
     """Render ``preset`` off-screen to the PNG ``path`` (parent directories created) and
-    return the path.  See :func:`plotter` for ``camera``, ``window_size``, ``zoom``,
-    ``title`` and the module doc for each preset's ``options``."""
+    return the path (``.png`` added when it has no suffix, as the image writer does).  See
+    :func:`plotter` for ``camera``, ``window_size``, ``zoom``, ``title`` and the module doc
+    for each preset's ``options``.  A wire preset (``wire``, ``torus``) of a scene without
+    wire links warns: its picture shows no wire."""
     path = Path(path)
+    if not path.suffix:
+        path = path.with_suffix(".png")
     path.parent.mkdir(parents=True, exist_ok=True)
     pl = plotter(model, state, preset, camera=camera, window_size=window_size, **options)
     try:
+        if preset in ("wire", "torus") and model.n_links == 0:
+            import warnings
+
+            shows = "the walls only" if preset == "wire" else "an empty map"
+            warnings.warn(f"snapshot: preset {preset!r} draws the wire, and this scene has no "
+                          f"wire links: {path} shows {shows}", RuntimeWarning, stacklevel=2)
         pl.screenshot(str(path), transparent_background=False)
     finally:
         pl.close()

@@ -40,11 +40,14 @@ def test_info_render_export(demo, tmp_path, capsys):
 @pytest.mark.parametrize("toml, expected", [
     ('test = "cylinder_triaxial"\nscale = 0.05\ncolour = "red"\n', "colour"),
     ('test = "cylinder_triaxial"\n[parameters]\npressure = -5.0\n',
-     "parameters.pressure: Input should be greater than 0"),
+     "parameters.pressure = -5.0: must be a number > 0"),
     ('test = "box_triaxial"\n[parameters]\naxial_strain = "a lot"\n', "parameters.axial_strain"),
     ('test = "triaxial"\n', "test"),
-    ('test = "slope_deposit"\nscale = 0\n', "scale: Input should be greater than 0"),
-    ('test = "slope_deposit"\n[wire]\nlaw = "rope"\n', "wire.law"),
+    ('test = "slope_deposit"\nscale = 0\n', "scale = 0: must be a number in (0, 1]"),
+    ('test = "slope_deposit"\n[wire]\nlaw = "rope"\n',
+     "wire.law = 'rope': must be one of 'elastic', 'rigid', 'none'"),
+    ('test = "box_triaxial"\nsede = 1\n[parameters]\npresure = 1e4\ndt = -1\n',
+     "3 problem(s) (box_triaxial)\n  sede = 1: unknown field (the fields are: test, scale, seed"),
     ('test = = 1', "not valid TOML"),
     ('test = "slope_deposit"\n[parameters]\nanderson = 4\nhot_sweeps = 2\n',
      "hot_sweeps = 2 needs anderson = 0 (got 4)"),
@@ -65,6 +68,49 @@ def test_good_config_runs(tmp_path):
                  'iso_max_steps = 400\n[wire]\nlaw = "rigid"\n')
     assert cli.main(["run", str(p), "--out", str(tmp_path / "o")]) == 0
     assert (tmp_path / "o" / "run.h5").exists() and (tmp_path / "o" / "stress_strain.png").exists()
+
+
+def test_a_failed_run_is_one_line_with_exit_code_1(tmp_path, capsys):
+    """A run that stops on non-convergence (2 sweeps per step cannot reach tol) exits 1 with
+    the engine's message and where its history is, not a traceback."""
+    p = tmp_path / "c.toml"
+    p.write_text('test = "box_triaxial"\nscale = 0.02\n[parameters]\naxial_strain = 0.002\n'
+                 'max_iter = 2\ntol = 1e-12\nmax_nonconverged = 0.1\niso_max_steps = 50\n')
+    assert cli.main(["run", str(p), "--out", str(tmp_path / "o")]) == 1
+    err = capsys.readouterr().err
+    assert "nscd run: the run failed: box_triaxial: " in err and "hit max_iter" in err
+    assert str(tmp_path / "o" / "run.h5") in err and "Traceback" not in err
+    # the isotropic stage it did not finish is said on one line too
+    assert "nscd run: warning: the isotropic stage did not reach" in err
+
+
+def test_paths_that_cannot_be_used_are_one_line_with_exit_code_2(demo, tmp_path, capsys):
+    (tmp_path / "afile").write_text("x")
+    (tmp_path / "adir.toml").mkdir()
+    for args, says in ((["export", str(demo / "run.h5"), str(tmp_path / "afile")],
+                        f"nscd export: {tmp_path / 'afile'}: File exists"),
+                       (["run", str(tmp_path / "adir.toml")], "is a directory, not a TOML file"),
+                       (["demo", "--scale", "-1", "--strain", "0.7", "--out", str(tmp_path / "d")],
+                        "nscd demo: --scale = -1.0: must be a number in (0, 1]; --strain = 0.7: "
+                        "must be a number in (0, 0.5]")):
+        assert cli.main(args) == 2
+        err = capsys.readouterr().err
+        assert says in err and "Traceback" not in err
+    assert not (tmp_path / "d").exists()              # the demo refused before writing
+
+
+def test_run_help_lists_every_parameter_with_its_range(capsys):
+    with pytest.raises(SystemExit):
+        cli.main(["run", "--help"])
+    out = capsys.readouterr().out
+    for line in ("scale: default 0.05; a number in (0, 1]",
+                 "law: default 'elastic'; one of 'elastic', 'rigid', 'none'",
+                 "[parameters] of slope_deposit:", "theta: default 0.5; a number in [0.5, 1]",
+                 "pressure: default 15000.0; a number > 0 — [Pa]",
+                 "strain_rate: default None; a number > 0 — [1/s]"):
+        assert line in out, line
+    for name in cli.CylinderParams.model_fields:
+        assert f"  {name}: " in out
 
 
 def test_help_on_every_command(capsys):

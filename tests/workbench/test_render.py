@@ -148,10 +148,17 @@ def test_torus_needs_a_cylinder(tmp_path):
     model, state = s.compile(dt=1e-4)
     with pytest.raises(ValueError, match="cylinder"):
         render.snapshot(model, state, tmp_path / "t.png", preset="torus")
-    # the other presets draw a scene without contacts or wires (empty parts are skipped)
-    for preset in ("beads", "wire", "forces"):
+    # the other presets draw a scene without contacts or wires (empty parts are skipped);
+    # the wire preset says that it has no wire to show
+    for preset in ("beads", "forces"):
         assert render.snapshot(model, state, tmp_path / f"{preset}.png", preset=preset,
                                window_size=(160, 120)).is_file()
+    with pytest.warns(RuntimeWarning, match="no wire links: .* shows the walls only"):
+        assert render.snapshot(model, state, tmp_path / "wire.png", preset="wire",
+                               window_size=(160, 120)).is_file()
+    # a path without suffix gets the .png the image writer adds, and the path says so
+    p = render.snapshot(model, state, tmp_path / "noext", preset="beads", window_size=(160, 120))
+    assert p == tmp_path / "noext.png" and p.is_file() and not (tmp_path / "noext").exists()
 
 
 def test_headless_in_a_fresh_process(tmp_path):

@@ -63,7 +63,8 @@ class Coulomb(Law):
     Parameters
     ----------
     mu : float
-        Friction coefficient [-], ``mu >= 0`` (0 = frictionless).
+        Friction coefficient [-], ``mu >= 0`` (0 = frictionless, ``inf`` = perfectly rough:
+        the tangential impulse is never bounded, contacts never slide); NaN is refused.
 
     Notes
     -----
@@ -74,7 +75,7 @@ class Coulomb(Law):
     """
 
     code: ClassVar[int] = COULOMB
-    mu: float = Field(ge=0.0, allow_inf_nan=False, description="friction coefficient [-]")
+    mu: float = Field(ge=0.0, description="friction coefficient [-] (inf: no sliding)")
 
     def params(self) -> tuple[float, ...]:
         return (self.mu, 0.0, 0.0, 0.0)

@@ -49,6 +49,23 @@ def test_sliding_sphere_ends_rolling_at_five_sevenths(theta):
     assert abs(state.velocity[1, 1]) < 1e-12 and abs(state.velocity[1, 2]) < 1e-9
 
 
+def test_infinite_friction_rolls_at_five_sevenths_in_one_step(theta):
+    """μ = inf (perfectly rough): the slip stops within the first step, so the 5/7 law holds
+    at once (t_slip = 2 v0/(7 μ g) -> 0), angular momentum about the contact point being
+    conserved: v = 5/7 v0, ω r = v.  NaN-free: the cone bound is never inf × 0."""
+    r, v0 = 0.01, 1.0
+    s = Scene(gravity=(0, 0, -G))
+    s.add_plane(group="wall")
+    s.add_spheres([[0.0, 0.0, r]], r, density=2650.0, velocities=[[v0, 0, 0]])
+    s.interact("sand", "wall", laws.Coulomb(mu=np.inf))
+    model, state = s.compile(dt=1e-4, theta=theta, tol=1e-10)
+    for _ in range(50):
+        assert step(model, state).converged
+        assert state.velocity[1, 0] == pytest.approx(5 / 7 * v0, rel=1e-8)
+        assert state.spin[1, 1] * r == pytest.approx(5 / 7 * v0, rel=1e-8)
+    assert np.isfinite(state.vel6).all()
+
+
 def test_with_friction_changes_the_sliding_deceleration_mid_run(theta):
     """Two spheres sliding on a floor (groups a and b, same Coulomb law): while sliding, a
     step's friction impulse is μ m g h, so v drops by μ g h per step.  Model.with_friction

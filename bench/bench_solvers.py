@@ -1,9 +1,10 @@
 """Solver options benchmark (issue 9, item 5: every knob that trades speed measured): the
 1 000-sphere deposit of ``make bench-peers`` run to rest with plain Gauss–Seidel,
-Anderson mixing (``anderson=4``, the experiments' default until 2026-11-25) and re-sweeps of the hot
-contacts (``hot_sweeps``), at the paper's step and at a 10x larger one.
+Anderson mixing (``anderson=4``, the experiments' default until 2026-11-25), re-sweeps of the hot
+contacts (``hot_sweeps``) and over-relaxation (``relax`` > 1, alone and with the re-sweeps),
+at the paper's step and at a 10x larger one.
 
-Run:  .venv/bin/python bench/bench_solvers.py            (about 4 min, one thread)
+Run:  .venv/bin/python bench/bench_solvers.py            (about 6 min, one thread)
       .venv/bin/python bench/bench_solvers.py --quick    (h = 5e-4 s only, ~30 s)
 
 Writes bench/results/solvers-YYYYMMDD-HHMM.json.
@@ -38,7 +39,10 @@ import record  # noqa: E402
 SETTINGS = [("plain", dict(anderson=0, hot_sweeps=0)),
             ("anderson=4", dict(anderson=4, hot_sweeps=0)),
             ("hot_sweeps=2", dict(anderson=0, hot_sweeps=2)),
-            ("hot_sweeps=3", dict(anderson=0, hot_sweeps=3))]
+            ("hot_sweeps=3", dict(anderson=0, hot_sweeps=3)),
+            ("relax=1.4", dict(anderson=0, hot_sweeps=0, relax=1.4)),
+            ("hot_sweeps=2,relax=1.3", dict(anderson=0, hot_sweeps=2, relax=1.3)),
+            ("hot_sweeps=2,relax=1.4", dict(anderson=0, hot_sweeps=2, relax=1.4))]
 
 
 def to_rest(init, dt, opts, cap_s, max_steps=10**9):
@@ -48,7 +52,7 @@ def to_rest(init, dt, opts, cap_s, max_steps=10**9):
     from engine import step
 
     _, model, state, _ = ours.build(init, dt, opts["anderson"])
-    model = model.with_options(hot_sweeps=opts["hot_sweeps"])
+    model = model.with_options(hot_sweeps=opts["hot_sweeps"], relax=opts.get("relax", 1.0))
     sph = model.sphere_ids
     m, inertia = common.masses(model.body_radius[sph], common.PARAMS["density"])
     peak = 0.0
@@ -98,7 +102,7 @@ def main(argv=None):
             r = to_rest(init, dt, opts, a.cap_s)
             r["label"] = label
             rows.append(r)
-            print(f"h = {dt:g} s  {label:13s}: {'at rest' if r['at_rest'] else 'NOT at rest'} "
+            print(f"h = {dt:g} s  {label:22s}: {'at rest' if r['at_rest'] else 'NOT at rest'} "
                   f"after {r['steps']} steps in {r['wall_s']:.1f} s, "
                   f"{r['full_sweeps_per_step']:.0f} full sweeps/step, "
                   f"{r['steps_at_max_iter']} at max_iter, mean height "

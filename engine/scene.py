@@ -441,8 +441,9 @@ class Scene:
         ----------
         dt : float [s], > 0
         theta : float in [0.5, 1]
-        tol : float > 0 ; max_iter : int >= 1 ; relax : float in (0, 1]
-            NLGS tolerance (Quad norm), sweep cap and relaxation.
+        tol : float > 0 ; max_iter : int >= 1 ; relax : float in (0, 2)
+            NLGS tolerance (Quad norm), sweep cap and relaxation ω (> 1: over-relaxation,
+            :attr:`engine.model.Options.relax`).
         alert, skin : float [m]
             Alert distance (default 0.1 × smallest sphere radius) and Verlet skin (default
             0.5 × smallest radius).

@@ -188,6 +188,7 @@ def main():
     o_rest = _load(work, "ours_rest.json")
     o_rest_big = _load(work, "ours_rest_dt_large.json")
     o_rest_loose = _load(work, "ours_rest_loose_tol.json")
+    o_rest_sor = _load(work, "ours_rest_sor.json")
     yade = _load(work, "yade_rest.json")
     dense_state = _load(work, "dense_state.json")
     shim = _load(work, "shim.json")
@@ -229,9 +230,10 @@ def main():
         yd["ours_at_rest"] = o_rest["at_rest"]
         yd["yade_at_rest"] = yade["at_rest"]
         yd["agreement_at_end"] = _agree(o_rest["final"], yade["final"])
-    # the same deposit at NSCD's larger time step (PEERS_REST_DT_LARGE), and at h = 5e-5 s
-    # with a looser NLGS tolerance (PEERS_REST_TOL_LOOSE); each also against our first run
-    for tag, o in (("large_dt", o_rest_big), ("loose_tol", o_rest_loose)):
+    # the same deposit at NSCD's larger time step (PEERS_REST_DT_LARGE), at h = 5e-5 s
+    # with a looser NLGS tolerance (PEERS_REST_TOL_LOOSE), and at h = 5e-5 s, tol 1e-4 with
+    # over-relaxation (PEERS_REST_RELAX); each also against our first run
+    for tag, o in (("large_dt", o_rest_big), ("loose_tol", o_rest_loose), ("sor", o_rest_sor)):
         if not (o and yade):
             continue
         yd[f"ours_{tag}"] = _compact(o)
@@ -266,6 +268,8 @@ def main():
         yade_wall_to_rest_ratio=yd.get("ratio_wall_to_rest"),
         yade_wall_to_rest_ratio_large_dt=yd.get("ratio_wall_to_rest_large_dt"),
         yade_wall_to_rest_ratio_loose_tol=yd.get("ratio_wall_to_rest_loose_tol"),
+        yade_wall_to_rest_ratio_sor=yd.get("ratio_wall_to_rest_sor"),
+        ours_sor_relax=(o_rest_sor or {}).get("relax"),
         ours_large_dt_s=(o_rest_big or {}).get("dt_s"),
         ours_loose_tol=(o_rest_loose or {}).get("tol"),
         ours_rest_anderson=(o_rest or {}).get("anderson"),
@@ -341,12 +345,13 @@ def print_table(out):
         print(f"ratio Yade/ours wall time to rest (h = {y['ours'].get('dt_s', 5e-5):g} s): "
               f"{'>= ' if y['ratio_is_lower_bound'] else ''}"
               f"{y['ratio_wall_to_rest']:.1f} (target >= {TARGET:g})")
-    for tag in ("large_dt", "loose_tol"):
+    for tag in ("large_dt", "loose_tol", "sor"):
         if not y.get(f"ours_{tag}"):
             continue
         o = y[f"ours_{tag}"]
         g = y[f"agreement_at_end_{tag}"]
-        what = f"h = {o['dt_s']:g} s, tol {o['tol']:g}"
+        what = f"h = {o['dt_s']:g} s, tol {o['tol']:g}" + (
+            f", relax {o['relax']:g}" if o.get("relax", 1.0) != 1.0 else "")
         print(f"ours at {what}: {'at rest' if o['at_rest'] else 'NOT at rest'} after "
               f"{o['steps_done']} steps in {o['wall_s']:.1f} s; mean height "
               f"{g['mean_height_ours_m'] * 1e3:.4f} mm (Yade rel {g['mean_height_rel_diff']:+.2e}); "

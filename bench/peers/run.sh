@@ -15,6 +15,8 @@
 #   PEERS_REST_TOL_LOOSE=1e-3 our third run to rest, at h = 5e-5 s with this NLGS
 #                            tolerance (docs/tradeoff.md: enough for a pile at rest; the
 #                            other runs use the common 1e-4); empty: skipped
+#   PEERS_REST_RELAX=1.4     our fourth run to rest, at h = 5e-5 s and tol 1e-4 with this
+#                            NLGS over-relaxation (docs/speed.md); empty: skipped
 #   PEERS_REST_ANDERSON=0, PEERS_REST_HOT=2   NLGS of our runs to rest: Anderson depth and
 #                            re-sweeps of the hot contacts (docs/speed.md: the fastest
 #                            measured for this deposit; 4 and 0 were the default until
@@ -156,6 +158,12 @@ if ! skip yade; then
     run ours_rest_loose_tol "$VPY" $HERE/ours.py rest --state "$WORK/init_state.json" \
         --cap-s "$REST_CAP" --tol "$TOL_LOOSE" --anderson "$AND" --hot-sweeps "$HOT" \
         --out "$WORK/ours_rest_loose_tol.json"
+  fi
+  RELAX=${PEERS_REST_RELAX-1.4}
+  if [[ -n "$RELAX" ]]; then
+    run ours_rest_sor "$VPY" $HERE/ours.py rest --state "$WORK/init_state.json" \
+        --cap-s "$REST_CAP" --relax "$RELAX" --anderson "$AND" --hot-sweeps "$HOT" \
+        --out "$WORK/ours_rest_sor.json"
   fi
   run yade_rest env PEERS_STATE="$WORK/init_state.json" PEERS_OUT="$WORK/yade_rest.json" \
       PEERS_CAP_S="$YADE_CAP" yade -n -j1 -x $HERE/yade_deposit.py

@@ -136,3 +136,24 @@ def wire_under_lid(**compile_kw):
     s.interact("wire", "wire", laws.Coulomb(mu=0.3))
     model, state = s.compile(**{"dt": 1e-4, "tol": 1e-8, "max_iter": 50000, **compile_kw})
     return model, state, lid
+
+
+def assert_same_wire_lid_trajectory(other: dict, plain: dict | None = None, steps: int = 15):
+    """:func:`wire_under_lid` stepped ``steps`` times at tol 1e-10 with the ``plain`` options
+    and with the ``other`` ones: every step converges, the positions (lid included) agree to
+    1e-9 m and the link impulses to 1e-6 of the largest, tensions only (λ >= 0)."""
+    from engine import step
+
+    res = []
+    for kw in (plain or {}, other):
+        model, state, lid = wire_under_lid(tol=1e-10, **kw)
+        for _ in range(steps):
+            assert step(model, state).converged
+        res.append((state, lid))
+    (a, lid), (b, _) = res
+    assert a.link_impulse.max() > 0.0
+    np.testing.assert_allclose(b.position, a.position, rtol=0, atol=1e-9)
+    assert abs(b.position[lid, 2] - a.position[lid, 2]) < 1e-9
+    np.testing.assert_allclose(b.link_impulse, a.link_impulse, rtol=0,
+                               atol=1e-6 * np.abs(a.link_impulse).max() + 1e-15)
+    assert (b.link_impulse >= 0.0).all()

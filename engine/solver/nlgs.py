@@ -223,14 +223,16 @@ def _contact(a, c_i, c_j, frame, w, gterm, mu, ri, rj, impulse, body_dyn, vel6, 
 
 @njit(cache=True, inline="always")
 def _span(lo, hi, q, c_i, c_j, frame, w, gterm, mu, ri, rj, impulse, body_dyn, vel6, relax,
-          line_j, over, store):
-    """Contacts ``lo..hi`` in order (``line_j``, ``over``, ``store``: constants at each call
-    site); each ‖W Δp‖² goes to ``q[a]`` when ``store``.  Returns the Quad sums."""
+          line_j, guard, over, store):
+    """Contacts ``lo..hi`` in order (``line_j``, ``guard``, ``over``: constants at each call
+    site, see :func:`_contact`); each ‖W Δp‖² goes to ``q[a]`` when ``store``.  Returns the
+    Quad sums.  The parallel sweep's groups run through it too
+    (:func:`engine.solver.parallel._run`)."""
     num = 0.0
     den = 0.0
     for a in range(lo, hi):
         x, y = _contact(a, c_i, c_j, frame, w, gterm, mu, ri, rj, impulse, body_dyn, vel6, relax,
-                        line_j, False, over)
+                        line_j, guard, over)
         if store:
             q[a] = x
         num += x
@@ -244,9 +246,9 @@ def _full(n, n_pair, q, c_i, c_j, frame, w, gterm, mu, ri, rj, impulse, body_dyn
     """All ``n`` contacts: the sphere–sphere ones (the first ``n_pair``), then those that may
     touch a driven wall; returns the Quad sums."""
     num, den = _span(0, n_pair, q, c_i, c_j, frame, w, gterm, mu, ri, rj, impulse, body_dyn,
-                     vel6, relax, False, over, store)
+                     vel6, relax, False, False, over, store)
     x, y = _span(n_pair, n, q, c_i, c_j, frame, w, gterm, mu, ri, rj, impulse, body_dyn, vel6,
-                 relax, True, over, store)
+                 relax, True, False, over, store)
     return num + x, den + y
 
 

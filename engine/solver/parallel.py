@@ -33,7 +33,7 @@ from numba import njit, prange
 from ..threads import numba_threads
 
 from ..model import DYN_INV_INERTIA, DYN_INV_MASS, DYN_LINE
-from .nlgs import HOT_FACTOR, _contact, hot_list, links_then_residual
+from .nlgs import HOT_FACTOR, _contact, _span, hot_list, links_then_residual
 
 
 @njit(cache=True)
@@ -169,17 +169,8 @@ def _run(lo, hi, q, c_i, c_j, frame, w, gterm, mu, ri, rj, impulse, body_dyn, ve
     """Contacts ``lo..hi`` of a group in order, with or without the immobile-body guard (a
     constant at each call site); each ‖W Δp‖² stored in ``q`` unless ``q`` is empty.
     Returns the Quad sums."""
-    keep = q.shape[0] > 0
-    num = 0.0
-    den = 0.0
-    for a in range(lo, hi):
-        x, y = _contact(a, c_i, c_j, frame, w, gterm, mu, ri, rj, impulse, body_dyn, vel6,
-                        relax, False, guard)
-        if keep:
-            q[a] = x
-        num += x
-        den += y
-    return num, den
+    return _span(lo, hi, q, c_i, c_j, frame, w, gterm, mu, ri, rj, impulse, body_dyn, vel6,
+                 relax, False, guard, False, q.shape[0] > 0)
 
 
 @njit(cache=True)

@@ -5,7 +5,8 @@ import pytest
 
 from engine import step
 
-from tests.helpers import assert_option_refused, same_converged_step, wire_under_lid
+from tests.helpers import (assert_option_refused, assert_same_wire_lid_trajectory,
+                           same_converged_step)
 
 
 @pytest.mark.parametrize("bad", [-1, 17, 2.5, "four", None])
@@ -42,20 +43,7 @@ def test_anderson_with_wire_and_driven_wall(threads):
     """Links (mixed with the contacts, unilateral ones projected on λ >= 0) and a
     pressure-driven lid: the plain serial solver's trajectory within tolerance (tol 1e-10,
     so that both are within ~1e-8 of the exact one after 15 steps)."""
-    res = []
-    for m, t in ((0, 1), (4, threads)):
-        model, state, lid = wire_under_lid(anderson=m, tol=1e-10, threads=t)
-        for _ in range(15):
-            st = step(model, state)
-            assert st.converged
-        res.append(state)
-    a, b = res
-    assert a.link_impulse.max() > 0.0
-    np.testing.assert_allclose(b.position, a.position, rtol=0, atol=1e-9)
-    assert abs(b.position[lid, 2] - a.position[lid, 2]) < 1e-9
-    np.testing.assert_allclose(b.link_impulse, a.link_impulse, rtol=0,
-                               atol=1e-6 * np.abs(a.link_impulse).max() + 1e-15)
-    assert (b.link_impulse >= 0.0).all()
+    assert_same_wire_lid_trajectory(dict(anderson=4, threads=threads))
 
 
 @pytest.mark.parametrize("threads", [1, 2])

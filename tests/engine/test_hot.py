@@ -8,7 +8,8 @@ from engine import step
 from engine.model import Options
 from engine.solver.nlgs import hot_list
 
-from tests.helpers import assert_option_refused, same_converged_step, wire_under_lid
+from tests.helpers import (assert_option_refused, assert_same_wire_lid_trajectory,
+                           same_converged_step)
 
 
 @pytest.mark.parametrize("bad", [-1, 9, 2.5, "three", None, True])
@@ -69,20 +70,7 @@ def test_hot_with_wire_and_driven_wall(threads):
     """Links (swept in the full sweeps) and a pressure-driven lid (its contacts in the
     second loop, or shared by every domain): the plain solver's trajectory within
     tolerance (tol 1e-10)."""
-    res = []
-    for h in (0, 3):
-        model, state, lid = wire_under_lid(hot_sweeps=h, tol=1e-10,
-                                           threads=(threads if h else 1))
-        for _ in range(15):
-            assert step(model, state).converged
-        res.append((state, lid))
-    (a, lid), (b, _) = res
-    assert a.link_impulse.max() > 0.0
-    np.testing.assert_allclose(b.position, a.position, rtol=0, atol=1e-9)
-    assert abs(b.position[lid, 2] - a.position[lid, 2]) < 1e-9
-    np.testing.assert_allclose(b.link_impulse, a.link_impulse, rtol=0,
-                               atol=1e-6 * np.abs(a.link_impulse).max() + 1e-15)
-    assert (b.link_impulse >= 0.0).all()
+    assert_same_wire_lid_trajectory(dict(hot_sweeps=3, threads=threads))
 
 
 @pytest.mark.parametrize("threads", [1, 2])

@@ -570,13 +570,17 @@ class History:
     def trigger(self, step: int) -> bool:
         return bool(self._trigger(step)) or (self.frames > 0 and step % self.frames == 0)
 
-    def write(self, model, state) -> None:
-        """Record the state after a complete step (called by :func:`engine.run`)."""
+    def _begin(self, model, state) -> None:
+        """What every write starts with: an open file, set up at the first one."""
         if self._file is None:
             raise ValueError(f"History({self.path!r}) is closed")
         if not self._ready:
             self._setup(model, state)
         self._step_seen = state.step
+
+    def write(self, model, state) -> None:
+        """Record the state after a complete step (called by :func:`engine.run`)."""
+        self._begin(model, state)
         if self._last_flush is None:
             self._last_flush = state.step
         if self._trigger(state.step):
@@ -591,11 +595,7 @@ class History:
         """Record the state reached, and write its frame when the history has frames, unless
         this step was recorded (framed) already: a run whose last step falls between two
         triggers keeps its end state.  Then flush."""
-        if self._file is None:
-            raise ValueError(f"History({self.path!r}) is closed")
-        if not self._ready:
-            self._setup(model, state)
-        self._step_seen = state.step
+        self._begin(model, state)
         if self._recorded_step != state.step:
             self._record(model, state)
         if self.frames and self._framed_step != state.step:

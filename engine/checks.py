@@ -19,7 +19,7 @@ import types
 import typing
 
 import annotated_types as at
-from pydantic import BaseModel, ValidationError
+from pydantic import BaseModel, ValidationError, field_validator
 
 __all__ = ["Checked", "InputError", "allowed", "describe", "explain"]
 
@@ -114,8 +114,29 @@ def explain(e: ValidationError, cls, prefix: str = "") -> str:
     return f"{cls.__name__}: " + "; ".join(describe(x, cls, prefix) for x in e.errors())
 
 
+def _numeric(ann) -> bool:
+    """Whether annotation ``ann`` is a number, an optional number or a tuple of numbers."""
+    if ann in (int, float):
+        return True
+    args = [a for a in typing.get_args(ann) if a is not type(None) and a is not Ellipsis]
+    return bool(args) and typing.get_origin(ann) in (typing.Union, types.UnionType, tuple) \
+        and all(_numeric(a) for a in args)
+
+
 class Checked(BaseModel):
-    """A pydantic model raising :class:`InputError` with :func:`explain`'s message."""
+    """A pydantic model raising :class:`InputError` with :func:`explain`'s message.
+
+    A number given as a string (``dt="1e-5"``) is refused, where pydantic's lax mode
+    would convert it: a string there is a mistake in the caller's code or file.
+    """
+
+    @field_validator("*", mode="before")
+    @classmethod
+    def _no_strings(cls, v, info):
+        if isinstance(v, (str, bytes)) and _numeric(cls.model_fields[info.field_name].annotation):
+            rng = allowed(cls, info.field_name) or "a number"
+            raise ValueError(f"{info.field_name} = {v!r}: must be {rng}, not a string")
+        return v
 
     def __init__(self, **data):
         try:

@@ -24,7 +24,7 @@ def _finite_array(value, name: str, shape_tail: tuple, dtype=float) -> np.ndarra
     if a.ndim != 1 + len(shape_tail) or a.shape[1:] != shape_tail:
         want = "(n, " + ", ".join(map(str, shape_tail)) + ")" if shape_tail else "(n,)"
         raise ValueError(f"{name} must have shape {want}, got {a.shape}")
-    bad = ~np.isfinite(a.reshape(a.shape[0], -1)).all(axis=1)
+    bad = ~np.isfinite(a).all(axis=tuple(range(1, a.ndim)))     # per row (none: empty)
     if bad.any():
         raise ValueError(f"{name} must be finite; non-finite rows at ids {np.flatnonzero(bad)[:10].tolist()}")
     return a

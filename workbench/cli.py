@@ -18,7 +18,7 @@
 A TOML file for ``nscd run``::
 
     test = "cylinder_triaxial"        # or "box_triaxial", "slope_deposit"
-    scale = 0.05
+    scale = 0.05                       # 1: the paper's size
     seed = 0
     [parameters]                       # the test function's keyword arguments
     pressure = 15e3
@@ -41,7 +41,7 @@ from typing import Literal, Optional
 
 from pydantic import BaseModel, ConfigDict, Field, ValidationError, model_validator
 
-PRESETS = ("beads", "wire", "forces", "torus")
+from .render import CAMERAS, PRESETS  # noqa: E402  (no PyVista import: it is lazy there)
 
 
 # ---------------------------------------------------------------- configuration files
@@ -60,6 +60,9 @@ class SolverParams(_Strict):
     theta: float = Field(0.5, ge=0.5, le=1.0)
     tol: float = Field(3e-4, gt=0, lt=1)
     max_iter: int = Field(1000, ge=1)
+    relax: float = Field(1.0, gt=0, lt=2,
+                         description="NLGS relaxation (> 1: over-relaxation, needs anderson "
+                                     "= 0 and threads = 1)")
     anderson: int = Field(0, ge=0, le=16,
                           description="NLGS Anderson acceleration depth (0: none)")
     threads: int = Field(1, ge=1, le=64,
@@ -79,6 +82,9 @@ class SolverParams(_Strict):
         if self.hot_sweeps and self.anderson > 0:
             raise ValueError(f"hot_sweeps = {self.hot_sweeps} needs anderson = 0 (got "
                              f"{self.anderson})")
+        if self.relax > 1 and (self.anderson > 0 or self.threads > 1):
+            raise ValueError(f"relax = {self.relax:g} > 1 needs anderson = 0 (got "
+                             f"{self.anderson}) and threads = 1 (got {self.threads})")
         return self
 
 
@@ -88,15 +94,17 @@ class TriaxialParams(SolverParams):
     strain_rate: Optional[float] = Field(None, gt=0, description="[1/s]")
     target_I: float = Field(5e-4, gt=0, le=0.1)
     allow_dynamic: bool = False
-    mu_wall: Optional[float] = Field(None, ge=0, le=10)
     iso_max_steps: int = Field(4000, ge=1)
 
 
 class CylinderParams(TriaxialParams):
+    axial_strain: float = Field(0.1, gt=0, le=0.5)
+    mu_wall: float = Field(0.5, ge=0, le=10, description="friction of the cylinder and plates")
     torus_strains: list[float] = [0.02, 0.05, 0.1]
 
 
 class BoxParams(TriaxialParams):
+    mu_wall: float = Field(0.0, ge=0, le=10, description="friction of the six walls")
     bead_radius: Optional[float] = Field(None, gt=0, description="[m]")
 
 
@@ -116,9 +124,19 @@ _PARAMS = {"cylinder_triaxial": CylinderParams, "box_triaxial": BoxParams,
            "slope_deposit": SlopeParams}
 
 
+def _default_scale(test: str) -> float:
+    """The ``scale`` default of the test function (``engine.experiments``)."""
+    import inspect
+
+    from engine import experiments
+    return inspect.signature(getattr(experiments, test)).parameters["scale"].default
+
+
 class RunConfig(_Strict):
     test: Literal["cylinder_triaxial", "box_triaxial", "slope_deposit"]
-    scale: float = Field(0.05, gt=0, le=1.0)
+    scale: Optional[float] = Field(None, gt=0, le=1.0,
+                                   description="sample size (1: the paper's); default: the "
+                                               "test function's own")
     seed: int = Field(0, ge=0)
     parameters: dict = {}
     wire: WireConfig = WireConfig()
@@ -190,7 +208,9 @@ def config_help() -> str:
             out.append(f"  {name}: {default}" + (f"; {rng}" if rng else "") + desc)
         return out
 
-    lines += (["", "Top level:"] + table(RunConfig, skip=("parameters", "wire"))
+    scales = ", ".join(f"{t} {_default_scale(t):g}" for t in _PARAMS)
+    lines += (["", "Top level:"] + [x + (f" ({scales})" if x.startswith("  scale:") else "")
+                                      for x in table(RunConfig, skip=("parameters", "wire"))]
               + ["", "[wire]:"] + table(WireConfig))
     for test, cls in _PARAMS.items():
         lines += ["", f"[parameters] of {test}:"] + table(cls)
@@ -209,7 +229,8 @@ def run_config(cfg: RunConfig, params: BaseModel, out: Path, progress=True):
         kw["wire"] = True
         kw["wire_law"] = (laws.RigidWire() if cfg.wire.law == "rigid"
                           else laws.ElasticWire(stiffness=cfg.wire.stiffness))
-    return fn(cfg.scale, seed=cfg.seed, history=str(out / "run.h5"), progress=progress, **kw)
+    scale = _default_scale(cfg.test) if cfg.scale is None else cfg.scale
+    return fn(scale, seed=cfg.seed, history=str(out / "run.h5"), progress=progress, **kw)
 
 
 # ---------------------------------------------------------------- outputs of a run
@@ -439,8 +460,10 @@ def parser() -> argparse.ArgumentParser:
     d = sub.add_parser("demo", help="a small TexSol cylinder triaxial: run.h5, PNGs, a ParaView series",
                        description=cmd_demo.__doc__ or "Run the demo.")
     d.add_argument("--out", default="out/demo", help="output directory (default out/demo)")
-    d.add_argument("--scale", type=float, default=0.1, help="sample scale (1 = paper)")
-    d.add_argument("--strain", type=float, default=0.05, help="final axial strain")
+    d.add_argument("--scale", type=float, default=0.1,
+                   help="sample scale, in (0, 1] (1 = the paper's 6 200 grains; default 0.1)")
+    d.add_argument("--strain", type=float, default=0.05,
+                   help="final axial strain, in (0, 0.5] (default 0.05)")
     d.set_defaults(fn=cmd_demo)
     r = sub.add_parser("run", help="run a test from a TOML configuration file",
                        description="Run a test from a validated TOML file (every problem is "
@@ -452,17 +475,19 @@ def parser() -> argparse.ArgumentParser:
     g = sub.add_parser("render", help="render one frame of a run to PNG (off-screen)")
     g.add_argument("run", help="history (.h5) or checkpoint")
     g.add_argument("--frame", type=int, default=-1, help="frame index (default: last)")
-    g.add_argument("--preset", choices=PRESETS, default="beads")
-    g.add_argument("--camera", default="iso", help="iso, front, top, side")
-    g.add_argument("--out", help="PNG path")
+    g.add_argument("--preset", choices=PRESETS, default="beads",
+                   help="what to draw (default beads)")
+    g.add_argument("--camera", choices=tuple(CAMERAS), default="iso",
+                   help="view direction (default iso)")
+    g.add_argument("--out", help="PNG path (default <run stem>_<preset>.png beside the run)")
     g.set_defaults(fn=cmd_render)
     e = sub.add_parser("export", help="export every frame of a history to a ParaView series")
-    e.add_argument("run")
-    e.add_argument("outdir")
+    e.add_argument("run", help="history file (.h5) written by a run")
+    e.add_argument("outdir", help="directory for the VTU files and the PVD collection")
     e.add_argument("--name", default="frame", help="file stem")
     e.set_defaults(fn=cmd_export)
     i = sub.add_parser("info", help="summarise a checkpoint or history file")
-    i.add_argument("run")
+    i.add_argument("run", help="history or checkpoint file (.h5)")
     i.set_defaults(fn=cmd_info)
     pp = sub.add_parser("paper", help="reproduce the paper's §3 (Fig. 7-16, Table 2): a "
                         "Markdown report with figures, runs and series")

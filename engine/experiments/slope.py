@@ -91,8 +91,9 @@ def _hists(chains):
 def slope_deposit(scale: float = 0.02, *, wire: bool = True, wire_density: float | None = None,
                   wire_law=None, steps: int = 4000, ke_fraction: float = 1e-4,
                   rubber_radius: float = 0.3e-3, floor_extent: float = 5.0, dt: float = 5e-5,
-                  theta: float = 0.5, tol: float = 1e-4, max_iter: int = 1000, anderson: int = 0,
-                  threads: int = 1, hot_sweeps: int | None = None, mu: float = 0.5,
+                  theta: float = 0.5, tol: float = 1e-4, max_iter: int = 1000,
+                  relax: float = 1.0, anderson: int = 0, threads: int = 1,
+                  hot_sweeps: int | None = None, mu: float = 0.5,
                   mu_floor: float = 0.8, mu_wire: float = 0.3, record_every: int = 20,
                   frames: int = 200, max_nonconverged: float = 0.25,
                   history: str = "out/slope_deposit.h5", seed: int = 0,
@@ -112,7 +113,8 @@ def slope_deposit(scale: float = 0.02, *, wire: bool = True, wire_density: float
     (default 0) is the depth of the other NLGS acceleration (:mod:`engine.solver.anderson`),
     the default before 2026-11-25.  ``threads`` (default 1) is the NLGS thread count
     (:attr:`engine.model.Options.threads`); 2 pays only on samples of tens of thousands of
-    contacts (docs/speed.md).
+    contacts (docs/speed.md).  ``relax`` (default 1) is the NLGS relaxation factor
+    (:attr:`engine.model.Options.relax`; > 1, over-relaxation, on one thread and unmixed).
     """
     scale = check_scale(scale)
     anderson, hot_sweeps = solver_choice(anderson, hot_sweeps)
@@ -143,8 +145,8 @@ def slope_deposit(scale: float = 0.02, *, wire: bool = True, wire_density: float
         for g in ("sand", "wire"):
             sc.interact("wire", g, laws.Coulomb(mu=mu_wire))
         sc.interact("wire", "rubber", laws.Coulomb(mu=mu_floor))
-    model, state = sc.compile(dt=dt, theta=theta, tol=tol, max_iter=max_iter, anderson=anderson,
-                              threads=threads, hot_sweeps=hot_sweeps)
+    model, state = sc.compile(dt=dt, theta=theta, tol=tol, max_iter=max_iter, relax=relax,
+                              anderson=anderson, threads=threads, hot_sweeps=hot_sweeps)
     chains0 = wire_chains(model, state) if wire else []
 
     rec = Recorder({"time": lambda m, s: s.time,
@@ -213,7 +215,7 @@ def slope_deposit(scale: float = 0.02, *, wire: bool = True, wire_density: float
                     wire_law=repr(law), steps=steps, ke_fraction=ke_fraction,
                     rubber_radius=rubber_radius, n_rubber=int(len(rubber)),
                     floor_extent=floor_extent, dt=dt, theta=theta, tol=tol,
-                    max_iter=max_iter, anderson=anderson, threads=threads,
+                    max_iter=max_iter, relax=relax, anderson=anderson, threads=threads,
                     hot_sweeps=hot_sweeps, mu=mu, mu_floor=mu_floor,
                     mu_wire=mu_wire, seed=seed,
                     n_sand=int(sample.sand_radii.size), n_beads=sample.n_beads,

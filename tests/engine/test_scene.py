@@ -103,6 +103,10 @@ BAD = {
     "relax zero": (_compile(relax=0.0), r"relax = 0.0: must be a number in \(0, 2\)$"),
     "relax 2": (_compile(relax=2.0), r"relax = 2.0: must be a number in \(0, 2\)$"),
     "relax over with anderson": (_compile(relax=1.4, anderson=4), r"relax=1.4 > 1 \(over-relaxation\) works with the unmixed sweep on one thread only"),
+    "dt string": (_compile(dt="1e-5"), r"^Options: dt = '1e-5': must be a finite number > 0, not a string$"),
+    "max_iter string": (_compile(max_iter="10"), r"max_iter = '10': must be an integer >= 1, not a string$"),
+    "mu string": (lambda: laws.Coulomb(mu="0.3"), r"^Coulomb: mu = '0.3': must be a number >= 0, not a string$"),
+    "stiffness bytes": (lambda: laws.ElasticWire(stiffness=b"1"), r"stiffness = b'1': must be a finite number > 0, not a string$"),
     "mu negative": (lambda: laws.Coulomb(mu=-0.1), r"Coulomb: mu = -0.1: must be a number >= 0$"),
     "mu nan": (lambda: laws.Coulomb(mu=np.nan), r"Coulomb: mu = nan: must be a number >= 0$"),
     "unknown option": (lambda: _base().compile(dt=1e-4)[0].with_options(toll=1e-4),
@@ -127,6 +131,22 @@ def test_bad_input_raises_value_error(case):
     fn, pattern = BAD[case]
     with pytest.raises(ValueError, match=pattern):
         fn()
+
+
+def test_numpy_scalars_are_numbers():
+    """Strings are refused but numpy's scalars (a value read from an array) are not."""
+    model, _ = _base().compile(dt=np.float32(1e-4), max_iter=np.int64(50), tol=np.float64(1e-5))
+    assert model.options.max_iter == 50 and model.options.dt == pytest.approx(1e-4, rel=1e-6)
+
+
+def test_no_spheres_is_an_empty_addition():
+    """add_spheres of zero centres (a filter that kept none) adds nothing and returns no ids."""
+    s = _base()
+    n = s.n_bodies
+    for radii in (1e-3, np.zeros(0)):
+        ids = s.add_spheres(np.zeros((0, 3)), radii, density=2650.0)
+        assert ids.shape == (0,) and ids.dtype == np.int32
+    assert s.n_bodies == n
 
 
 def test_explicit_no_interaction_is_allowed():

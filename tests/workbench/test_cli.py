@@ -103,7 +103,9 @@ def test_run_help_lists_every_parameter_with_its_range(capsys):
     with pytest.raises(SystemExit):
         cli.main(["run", "--help"])
     out = capsys.readouterr().out
-    for line in ("scale: default 0.05; a number in (0, 1]",
+    for line in ("scale: default None; a number in (0, 1] — sample size (1: the paper's); "
+                 "default: the test function's own (cylinder_triaxial 0.05, box_triaxial "
+                 "0.05, slope_deposit 0.02)",
                  "law: default 'elastic'; one of 'elastic', 'rigid', 'none'",
                  "[parameters] of slope_deposit:", "theta: default 0.5; a number in [0.5, 1]",
                  "pressure: default 15000.0; a number > 0 — [Pa]",
@@ -111,6 +113,32 @@ def test_run_help_lists_every_parameter_with_its_range(capsys):
         assert line in out, line
     for name in cli.CylinderParams.model_fields:
         assert f"  {name}: " in out
+
+
+@pytest.mark.parametrize("test", sorted(cli._PARAMS))
+def test_run_file_defaults_are_the_test_functions(test):
+    """A key left out of a run file runs with the Python function's default: every
+    [parameters] key is a keyword of the test function, with the same default."""
+    import inspect
+
+    from engine import experiments
+
+    sig = inspect.signature(getattr(experiments, test)).parameters
+    for name, f in cli._PARAMS[test].model_fields.items():
+        assert name in sig, f"{test}: {name} is not a keyword of the function"
+        want = sig[name].default
+        got = f.default
+        assert (list(got) if isinstance(got, (list, tuple)) else got) == \
+            (list(want) if isinstance(want, (list, tuple)) else want), (test, name, got, want)
+
+
+def test_render_camera_choices_are_the_presets(capsys):
+    from workbench.render import CAMERAS
+
+    with pytest.raises(SystemExit):
+        cli.main(["render", "--help"])
+    out = capsys.readouterr().out
+    assert "{" + ",".join(CAMERAS) + "}" in out
 
 
 def test_help_on_every_command(capsys):

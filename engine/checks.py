@@ -133,8 +133,10 @@ class Checked(BaseModel):
     @field_validator("*", mode="before")
     @classmethod
     def _no_strings(cls, v, info):
-        if isinstance(v, (str, bytes)) and _numeric(cls.model_fields[info.field_name].annotation):
-            rng = allowed(cls, info.field_name) or "a number"
+        ann = cls.model_fields[info.field_name].annotation
+        if isinstance(v, (str, bytes)) and _numeric(ann):
+            rng = allowed(cls, info.field_name) or \
+                ("numbers" if typing.get_origin(ann) is tuple else "a number")
             raise ValueError(f"{info.field_name} = {v!r}: must be {rng}, not a string")
         return v
 

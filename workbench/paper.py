@@ -1206,11 +1206,13 @@ def _markdown(scale, claims, figs, pvds, table, rows, curves, out, wall, t_sim, 
     L += [f"Verdicts: {counts['reproduced']} reproduced, {counts['not reproduced']} not "
           f"reproduced, {counts['not comparable']} not comparable (of {len(claims)} claims).", "",
           "## Claims", "",
-          "| # | figure | claim | paper | ours | verdict | criterion here |",
-          "|---|---|---|---|---|---|---|"]
+          "| # | figure | claim | paper | ours | verdict |"
+          + (" criterion here |" if scale.smoke else ""),
+          "|---|---|---|---|---|---|" + ("---|" if scale.smoke else "")]
+    # the criterion's own outcome differs from the verdict at the smoke scale only
     for c in claims:
         L.append(f"| {c.id} | {c.figure} | {c.claim} | {c.paper} | {c.ours} | "
-                 f"**{c.status}** | {c.outcome} |")
+                 f"**{c.status}** |" + (f" {c.outcome} |" if scale.smoke else ""))
     L += ["", "Criteria (in `workbench/paper.py`; a criterion revised after seeing results says so "
           "in its note):", ""]
     for c in claims:

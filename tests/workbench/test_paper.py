@@ -220,7 +220,7 @@ def test_nscd_paper_tiny(tmp_path):
     for cid in CLAIMS:
         assert cid in rows, cid
         assert "**not comparable**" in rows[cid], rows[cid]
-    assert "Smoke scale" in report
+    assert "Smoke scale" in report and "| verdict | criterion here |" in report
     claims = json.loads((out / "claims.json").read_text())
     assert [c["id"] for c in claims] == CLAIMS
     for c in claims:

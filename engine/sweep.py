@@ -40,6 +40,7 @@ import os
 import socket
 import time
 import traceback
+import uuid
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Callable, Mapping
@@ -261,12 +262,43 @@ def _scalar(v):
     return None, False
 
 
-def run_case(experiment, params: dict, fixed: dict | None = None) -> dict:
+#: Seconds between two progress events of one case sent by a worker.
+REPORT_EVERY = 5.0
+
+
+def _reporter(report):
+    """The ``fn(desc, done, total)`` a case's stages call (:func:`report_stages_to`):
+    ``report`` a callable (serial runs) or ``(topic, case id)``, sent as a Dask event on the
+    worker running the case at most every :data:`REPORT_EVERY` seconds."""
+    if report is None or callable(report):
+        return report
+    topic, label = report
+    try:
+        from distributed import get_worker
+        worker = get_worker()
+    except (ImportError, ValueError):                  # not on a Dask worker
+        return None
+    last = [-math.inf]
+
+    def send(desc, done, total):
+        now = time.monotonic()
+        if now - last[0] >= REPORT_EVERY:
+            last[0] = now
+            worker.log_event(topic, dict(id=label, desc=str(desc), done=int(done),
+                                         total=int(total)))
+    return send
+
+
+def run_case(experiment, params: dict, fixed: dict | None = None, report=None) -> dict:
     """Run one case and return ``{"result", "elapsed", "worker"}``; what runs on a worker.
-    Exceptions propagate (the caller records them)."""
+    Exceptions propagate (the caller records them).  ``report``: where the case's stages
+    report their steps (see :func:`_reporter`; None: nowhere)."""
+    from .experiments.common import report_stages_to
+
     fn = _resolve(experiment)
     t0 = time.perf_counter()
-    res = fn(**params, **(fixed or {}))
+    with report_stages_to(_reporter(report)):
+        res = fn(**params, **(fixed or {}))
     elapsed = time.perf_counter() - t0
     if hasattr(res, "convergence") and not isinstance(res, Mapping):
         res = scalars_of(res)
@@ -446,7 +478,9 @@ def sweep(experiment, grid, client=None, *, out="out/sweep.json", retries: int =
         Keyword arguments given to every case but not part of its key (output folders,
         ``progress=False`` ...).
     progress : bool
-        One line per finished or failed case on stdout.
+        One line per finished or failed case on stdout, and a tqdm bar of the finished
+        cases whose text names each running case's stage and steps (reported by the
+        workers every :data:`REPORT_EVERY` s as Dask events).
     no_worker_timeout : float [s]
         When the cluster has had no worker for this long (all killed or crashed), the
         cases still pending fail ("NoWorkers") instead of waiting forever.
@@ -490,13 +524,33 @@ def sweep(experiment, grid, client=None, *, out="out/sweep.json", retries: int =
     meta = dict(experiment=name)
     t0 = time.perf_counter()
 
+    bar = None
+    running = {}                                     # case id -> (desc, done, total)
+
     def say(msg):
-        if progress:
+        if bar is not None:
+            bar.write(msg)
+        elif progress:
             print(msg, flush=True)
+
+    def on_stage(label, desc, done, total):
+        running[label] = (desc, done, total)
+
+    def show():
+        if bar is not None:
+            bar.set_postfix_str("; ".join(f"{k} {d} {n}/{t}" for k, (d, n, t)
+                                          in list(running.items())), refresh=False)
+            bar.refresh()
 
     n_total = len(rows)
     say(f"sweep {name}: {n_total} cases, {n_total - len(todo)} already done, "
         f"{len(todo)} to run -> {out}")
+    if progress and todo:
+        import sys
+
+        from tqdm.auto import tqdm
+        bar = tqdm(total=len(todo), unit="case", desc="sweep", dynamic_ncols=True,
+                   mininterval=0.5 if sys.stderr.isatty() else 60.0)
 
     def save():
         full = SweepTable(rows=others + rows, path=str(out))
@@ -506,15 +560,22 @@ def sweep(experiment, grid, client=None, *, out="out/sweep.json", retries: int =
         row.update(status="done", result=payload["result"], elapsed=payload["elapsed"],
                    worker=payload["worker"])
         save()
+        running.pop(row["id"], None)
         say(f"  done   {row['id']} {json.dumps(row['params'])} in {row['elapsed']:.1f} s "
             f"(attempt {row['attempts']})")
+        if bar is not None:
+            bar.update(1)
+            show()
 
     def failed(row, msg, final=None):
         row["errors"].append(msg)
+        running.pop(row["id"], None)
         final = row["attempts"] > retries if final is None else final
         if final:
             row["status"] = "failed"
             save()
+            if bar is not None:
+                bar.update(1)
         say(f"  {'FAILED' if final else 'failed'} {row['id']} {json.dumps(row['params'])} "
             f"(attempt {row['attempts']}{'' if final else ', retrying'}): "
             f"{msg.splitlines()[0]}")
@@ -525,8 +586,11 @@ def sweep(experiment, grid, client=None, *, out="out/sweep.json", retries: int =
             for row in todo:
                 while True:
                     row["attempts"] += 1
+                    def report(desc, done, total, label=row["id"]):
+                        on_stage(label, desc, done, total)
+                        show()
                     try:
-                        payload = run_case(fn, row["params"], fixed)
+                        payload = run_case(fn, row["params"], fixed, report=report)
                     except Exception as e:  # noqa: BLE001 - a case's failure is data
                         if failed(row, _error_text(e, traceback.format_exc())):
                             continue
@@ -535,7 +599,11 @@ def sweep(experiment, grid, client=None, *, out="out/sweep.json", retries: int =
                     break
         else:
             _run_dask(fn, todo, client, fixed, n_workers, finished, failed,
-                      no_worker_timeout=no_worker_timeout)
+                      no_worker_timeout=no_worker_timeout,
+                      on_stage=on_stage if bar is not None else None, show=show)
+    if bar is not None:
+        bar.close()
+        bar = None
     table.wall_time = time.perf_counter() - t0
     save()
     if hdf5:
@@ -545,7 +613,7 @@ def sweep(experiment, grid, client=None, *, out="out/sweep.json", retries: int =
 
 
 def _run_dask(fn, todo, client, fixed, n_workers, finished, failed, *, poll=5.0,
-              no_worker_timeout=300.0):
+              no_worker_timeout=300.0, on_stage=None, show=lambda: None):
     from distributed import Client, wait
     try:
         from dask.distributed import TimeoutError as _DistTimeout
@@ -557,11 +625,18 @@ def _run_dask(fn, todo, client, fixed, n_workers, finished, failed, *, poll=5.0,
         client = own = local_client(n_workers)
     elif isinstance(client, str):
         client = own = Client(client)
+    topic = None
     try:
+        if on_stage is not None:            # the workers' stage reports, as Dask events
+            topic = f"nscd-sweep-{uuid.uuid4().hex[:12]}"
+            client.subscribe_topic(topic, lambda ev: on_stage(ev[1]["id"], ev[1]["desc"],
+                                                              ev[1]["done"], ev[1]["total"]))
+
         def submit(row):
             row["attempts"] += 1
             # pure=False: a retry is a new task, never the cached failed one
-            return client.submit(run_case, fn, row["params"], fixed, pure=False,
+            return client.submit(run_case, fn, row["params"], fixed,
+                                 None if topic is None else (topic, row["id"]), pure=False,
                                  key=f"{row['id']}-a{row['attempts']}")
 
         futures = {submit(row): row for row in todo}
@@ -571,6 +646,7 @@ def _run_dask(fn, todo, client, fixed, n_workers, finished, failed, *, poll=5.0,
                 done = wait(list(futures), timeout=poll, return_when="FIRST_COMPLETED").done
             except (TimeoutError, _DistTimeout):
                 done = set()
+            show()
             if not done:
                 # a cluster whose workers are all gone (killed, crashed) would wait forever:
                 # after no_worker_timeout seconds without a worker the pending cases fail
@@ -598,6 +674,11 @@ def _run_dask(fn, todo, client, fixed, n_workers, finished, failed, *, poll=5.0,
                     finished(row, payload)
                 fut.release()
     finally:
+        if topic is not None:
+            try:
+                client.unsubscribe_topic(topic)
+            except Exception:  # noqa: BLE001 - a closed client has nothing to undo
+                pass
         if own is not None:
             cluster = getattr(own, "cluster", None)
             own.close()

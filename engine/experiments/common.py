@@ -2,6 +2,8 @@
 inertial number, convergence bookkeeping, recorders, the staged run loop."""
 from __future__ import annotations
 
+import contextlib
+import contextvars
 import math
 import os
 import sys
@@ -128,12 +130,29 @@ def choose_rate(rate, pressure, d_mean, density, *, target_I, allow_dynamic):
     return rate, I
 
 
+_REPORT = contextvars.ContextVar("nscd_stage_report", default=None)
+
+
+@contextlib.contextmanager
+def report_stages_to(fn):
+    """Within this block every stage of a test calls ``fn(desc, steps_done, total)`` after
+    each chunk of steps, whatever its ``progress`` flag: how :func:`engine.sweep.sweep`
+    follows the cases running on its workers (their own bars are off there)."""
+    token = _REPORT.set(fn)
+    try:
+        yield
+    finally:
+        _REPORT.reset(token)
+
+
 class Stages:
     """Runs a test in chunks (so drivers can be updated between them), with one tqdm bar,
     counts non-converged steps, stops on Ctrl-C, and keeps the recorders."""
 
     def __init__(self, model, state, writers, *, progress, total, desc):
         self.model, self.state, self.writers = model, state, list(writers)
+        self.desc, self.total = desc, int(total)
+        self.report = _REPORT.get()
         self.steps = 0
         self.wall_time = 0.0  # [s] spent in the steps (writers included), not in the set-up
         self.non_converged = []
@@ -155,6 +174,8 @@ class Stages:
         if self.bar is not None:
             self.bar.update(s.steps)
             self.bar.set_postfix(nc=len(self.non_converged), refresh=False)
+        if self.report is not None:
+            self.report(self.desc, self.steps, self.total)
         if s.interrupted:
             self.interrupted = True
         return not s.interrupted

@@ -111,6 +111,38 @@ def test_box_triaxial_on_two_workers_matches_direct_calls(client, tmp_path):
         assert Path(row["history"]).exists()
 
 
+def test_running_cases_report_their_stages(client, tmp_path):
+    """Progress of a long sweep: each case's stages report (stage, steps done, total) —
+    on a worker as Dask events to the client, in a serial run to the caller — and the last
+    report of a case is its step count."""
+    import time
+
+    from engine.sweep import _resolve, _run_dask, run_case
+
+    fn = _resolve("box_triaxial")
+    params = dict(scale=0.03, axial_strain=0.002)
+    calls = []
+    res = run_case(fn, dict(params, seed=0), {"history_dir": str(tmp_path / "serial")},
+                   report=lambda *a: calls.append(a))
+    assert calls and {c[0] for c in calls} == {"box triaxial"}
+    done = [c[1] for c in calls]
+    assert done == sorted(done) and done[-1] == res["result"]["steps"] <= calls[-1][2]
+
+    events, finished = [], []
+    rows = [dict(id=f"case{s}", params=dict(params, seed=s), attempts=0) for s in (0, 1)]
+    _run_dask(fn, rows, client, {"history_dir": str(tmp_path / "dask")}, 2,
+              lambda row, payload: finished.append(row["id"]),
+              lambda row, msg, final=None: pytest.fail(msg),
+              on_stage=lambda *a: events.append(a))
+    assert sorted(finished) == ["case0", "case1"]
+    t0 = time.monotonic()                 # the events travel apart from the results
+    while {e[0] for e in events} != {"case0", "case1"} and time.monotonic() - t0 < 10:
+        time.sleep(0.1)
+    assert {e[0] for e in events} == {"case0", "case1"}
+    for label, desc, n, total in events:
+        assert desc == "box triaxial" and 0 < n <= total
+
+
 # ---------------------------------------------------------------- failures and re-runs
 
 def test_failing_case_is_reported_and_the_others_finish(client, tmp_path):

@@ -19,9 +19,10 @@ import types
 import typing
 
 import annotated_types as at
+import numpy as np
 from pydantic import BaseModel, ValidationError, field_validator
 
-__all__ = ["Checked", "InputError", "allowed", "describe", "explain"]
+__all__ = ["Checked", "NumbersOnly", "InputError", "allowed", "describe", "explain"]
 
 
 class InputError(ValueError):
@@ -103,7 +104,8 @@ def describe(err: dict, cls, prefix: str = "") -> str:
         text = msg.removeprefix("Value error, ")
         if not loc:  # a check across fields
             return f"{prefix.rstrip('.')}: {text}" if prefix else text
-        return text if text.startswith(str(name)) else f"{field}: {text}"
+        # "name = value: ..." -> "prefix.loc.name = value: ..."
+        return field + text[len(str(name)):] if text.startswith(str(name)) else f"{field}: {text}"
     got = err.get("input")
     what = f"must be {rng}" if rng else msg[:1].lower() + msg[1:]
     return f"{field} = {got!r}: {what}"
@@ -115,7 +117,10 @@ def explain(e: ValidationError, cls, prefix: str = "") -> str:
 
 
 def _numeric(ann) -> bool:
-    """Whether annotation ``ann`` is a number, an optional number or a tuple of numbers."""
+    """Whether annotation ``ann`` is a number, an optional number or a tuple of numbers
+    (``Annotated`` metadata unwrapped)."""
+    if typing.get_origin(ann) is typing.Annotated:
+        return _numeric(typing.get_args(ann)[0])
     if ann in (int, float):
         return True
     args = [a for a in typing.get_args(ann) if a is not type(None) and a is not Ellipsis]
@@ -123,22 +128,42 @@ def _numeric(ann) -> bool:
         and all(_numeric(a) for a in args)
 
 
-class Checked(BaseModel):
-    """A pydantic model raising :class:`InputError` with :func:`explain`'s message.
+def _not_a_number(v) -> str | None:
+    """What ``v`` is when it is a string, a bool or a container of them (the values
+    pydantic's lax mode would turn into numbers), or None."""
+    if isinstance(v, (str, bytes, np.str_, np.bytes_)):
+        return "a string"
+    if isinstance(v, (bool, np.bool_)):
+        return "a bool"
+    if isinstance(v, np.ndarray):
+        return {"U": "strings", "S": "strings", "b": "bools"}.get(v.dtype.kind)
+    if isinstance(v, (list, tuple)):
+        inner = [_not_a_number(x) for x in v]
+        return next((("strings" if w == "a string" else "bools" if w == "a bool" else w)
+                     for w in inner if w), None)
+    return None
 
-    A number given as a string (``dt="1e-5"``) is refused, where pydantic's lax mode
-    would convert it: a string there is a mistake in the caller's code or file.
-    """
+
+class NumbersOnly(BaseModel):
+    """A pydantic model whose number fields refuse strings and bools (``dt="1e-5"``,
+    ``max_iter=True``), which pydantic's lax mode converts: there they are a mistake in
+    the caller's code or file.  Numpy's number scalars are numbers."""
 
     @field_validator("*", mode="before")
     @classmethod
-    def _no_strings(cls, v, info):
+    def _numbers_only(cls, v, info):
         ann = cls.model_fields[info.field_name].annotation
-        if isinstance(v, (str, bytes)) and _numeric(ann):
+        what = _not_a_number(v) if _numeric(ann) else None
+        if what:
             rng = allowed(cls, info.field_name) or \
                 ("numbers" if typing.get_origin(ann) is tuple else "a number")
-            raise ValueError(f"{info.field_name} = {v!r}: must be {rng}, not a string")
+            raise ValueError(f"{info.field_name} = {v!r}: must be {rng}, not {what}")
         return v
+
+
+class Checked(NumbersOnly):
+    """A pydantic model raising :class:`InputError` with :func:`explain`'s message, and
+    refusing strings and bools for numbers (:class:`NumbersOnly`)."""
 
     def __init__(self, **data):
         try:

@@ -9,7 +9,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 import numpy as np
-from pydantic import ConfigDict, Field, field_validator, model_validator
+from pydantic import ConfigDict, Field, model_validator
 
 from .checks import Checked
 
@@ -95,26 +95,26 @@ class Options(Checked):
     anderson: int = Field(0, ge=0, le=16)
     hot_sweeps: int = Field(0, ge=0, le=8)
 
-    @field_validator("threads", "anderson", "hot_sweeps", mode="before")
-    @classmethod
-    def _int_not_bool(cls, v, info):
-        if isinstance(v, (bool, np.bool_)):
-            rng = {"threads": "[1, 64]", "anderson": "[0, 16]", "hot_sweeps": "[0, 8]"}
-            raise ValueError(f"{info.field_name} must be an integer in "
-                             f"{rng[info.field_name]}, not a bool")
-        return v
-
     @model_validator(mode="after")
     def _hot_alone(self):
-        if self.hot_sweeps > 0 and self.anderson > 0:
-            raise ValueError(f"hot_sweeps={self.hot_sweeps} works with the unmixed sweep "
-                             f"only: set anderson=0 (got {self.anderson}), or hot_sweeps=0")
-        if self.relax > 1.0 and (self.anderson > 0 or self.threads > 1):
-            raise ValueError(f"relax={self.relax:g} > 1 (over-relaxation) works with the "
-                             f"unmixed sweep on one thread only: set anderson=0 (got "
-                             f"{self.anderson}) and threads=1 (got {self.threads}), or "
-                             f"relax <= 1")
+        problem = solver_conflict(self.hot_sweeps, self.anderson, self.relax, self.threads)
+        if problem:
+            raise ValueError(problem)
         return self
+
+
+def solver_conflict(hot_sweeps, anderson, relax, threads) -> str | None:
+    """Why these NLGS options do not go together (None: they do): the hot re-sweeps and
+    over-relaxation work on the unmixed sweep, over-relaxation on one thread only.  Shared
+    by :class:`Options` and the ``nscd run`` files, which check before anything runs."""
+    if hot_sweeps and anderson > 0:
+        return (f"hot_sweeps={hot_sweeps} works with the unmixed sweep only: set anderson=0 "
+                f"(got {anderson}), or hot_sweeps=0")
+    if relax > 1.0 and (anderson > 0 or threads > 1):
+        return (f"relax={relax:g} > 1 (over-relaxation) works with the unmixed sweep on one "
+                f"thread only: set anderson=0 (got {anderson}) and threads=1 (got {threads}), "
+                f"or relax <= 1")
+    return None
 
 
 @dataclass(frozen=True)

@@ -5,6 +5,7 @@ its allowed range (or the offending ids), never a numba traceback.
 """
 from __future__ import annotations
 
+import math
 import numbers
 
 import numpy as np
@@ -21,6 +22,8 @@ OVERLAP_TOLERANCE = 0.01
 
 def _finite_array(value, name: str, shape_tail: tuple, dtype=float) -> np.ndarray:
     a = np.asarray(value, dtype=dtype)
+    if a.size == 0 and a.ndim == 1:             # [] : no rows (a filter that kept none)
+        a = a.reshape((0, *shape_tail))
     if a.ndim != 1 + len(shape_tail) or a.shape[1:] != shape_tail:
         want = "(n, " + ", ".join(map(str, shape_tail)) + ")" if shape_tail else "(n,)"
         raise ValueError(f"{name} must have shape {want}, got {a.shape}")
@@ -116,8 +119,13 @@ class Scene:
         """
         c = _finite_array(centers, "centers", (3,))
         n = c.shape[0]
-        r = np.broadcast_to(np.asarray(radii, dtype=float), (n,)) if np.ndim(radii) == 0 else \
-            _finite_array(radii, "radii", ())
+        if np.ndim(radii) == 0:
+            r0 = float(radii)
+            if not (math.isfinite(r0) and r0 > 0.0):
+                raise ValueError(f"radii must be finite and > 0 m, got {radii!r}")
+            r = np.full(n, r0)
+        else:
+            r = _finite_array(radii, "radii", ())
         if r.shape != (n,):
             raise ValueError(f"radii must be a scalar or have shape ({n},), got {r.shape}")
         bad = np.flatnonzero(~(np.isfinite(r) & (r > 0.0)))

@@ -266,13 +266,28 @@ def _scalar(v):
 REPORT_EVERY = 5.0
 
 
+#: The Dask event topic of the running cases' reports (one for every sweep: the scheduler
+#: keeps a bounded log per topic, and topics are never removed).
+TOPIC = "nscd-sweep-progress"
+_LISTENERS = {}                     # sweep id -> on_stage(case id, desc, done, total)
+
+
+def _dispatch(event):
+    """Client side: hand a worker's report (``(timestamp, msg)``) to its sweep."""
+    msg = event[1]
+    fn = _LISTENERS.get(msg.get("sweep")) if isinstance(msg, dict) else None
+    if fn is not None:
+        fn(msg["id"], msg["desc"], msg["done"], msg["total"])
+
+
 def _reporter(report):
     """The ``fn(desc, done, total)`` a case's stages call (:func:`report_stages_to`):
-    ``report`` a callable (serial runs) or ``(topic, case id)``, sent as a Dask event on the
-    worker running the case at most every :data:`REPORT_EVERY` seconds."""
+    ``report`` a callable (serial runs) or ``(sweep id, case id)``, sent as a Dask event
+    (:data:`TOPIC`) by the worker running the case at most every :data:`REPORT_EVERY`
+    seconds."""
     if report is None or callable(report):
         return report
-    topic, label = report
+    sweep_id, label = report
     try:
         from distributed import get_worker
         worker = get_worker()
@@ -284,8 +299,8 @@ def _reporter(report):
         now = time.monotonic()
         if now - last[0] >= REPORT_EVERY:
             last[0] = now
-            worker.log_event(topic, dict(id=label, desc=str(desc), done=int(done),
-                                         total=int(total)))
+            worker.log_event(TOPIC, dict(sweep=sweep_id, id=label, desc=str(desc),
+                                         done=int(done), total=int(total)))
     return send
 
 
@@ -536,11 +551,17 @@ def sweep(experiment, grid, client=None, *, out="out/sweep.json", retries: int =
     def on_stage(label, desc, done, total):
         running[label] = (desc, done, total)
 
+    shown = [-math.inf]
+
     def show():
+        # the text changes with every report; redraw at the bar's own rate (once a minute
+        # in a log file), not at the reports'
         if bar is not None:
             bar.set_postfix_str("; ".join(f"{k} {d} {n}/{t}" for k, (d, n, t)
                                           in list(running.items())), refresh=False)
-            bar.refresh()
+            if time.monotonic() - shown[0] >= bar.mininterval:
+                shown[0] = time.monotonic()
+                bar.refresh()
 
     n_total = len(rows)
     say(f"sweep {name}: {n_total} cases, {n_total - len(todo)} already done, "
@@ -581,6 +602,25 @@ def sweep(experiment, grid, client=None, *, out="out/sweep.json", retries: int =
             f"{msg.splitlines()[0]}")
         return not final
 
+    try:
+        _run_todo(fn, todo, client, fixed, n_workers, finished, failed, on_stage, show,
+                  bar is not None, no_worker_timeout)
+    finally:
+        if bar is not None:
+            bar.close()
+            bar = None
+    table.wall_time = time.perf_counter() - t0
+    save()
+    if hdf5:
+        write_hdf5(SweepTable(rows=others + rows), out.with_suffix(".h5"))
+    say(str(table))
+    return table
+
+
+def _run_todo(fn, todo, client, fixed, n_workers, finished, failed, on_stage, show, follow,
+              no_worker_timeout):
+    """Run the cases of ``todo``, serially or on Dask; ``follow``: pass their stage
+    reports to ``on_stage``."""
     if todo:
         if isinstance(client, str) and client == "serial":
             for row in todo:
@@ -600,16 +640,7 @@ def sweep(experiment, grid, client=None, *, out="out/sweep.json", retries: int =
         else:
             _run_dask(fn, todo, client, fixed, n_workers, finished, failed,
                       no_worker_timeout=no_worker_timeout,
-                      on_stage=on_stage if bar is not None else None, show=show)
-    if bar is not None:
-        bar.close()
-        bar = None
-    table.wall_time = time.perf_counter() - t0
-    save()
-    if hdf5:
-        write_hdf5(SweepTable(rows=others + rows), out.with_suffix(".h5"))
-    say(str(table))
-    return table
+                      on_stage=on_stage if follow else None, show=show)
 
 
 def _run_dask(fn, todo, client, fixed, n_workers, finished, failed, *, poll=5.0,
@@ -625,18 +656,19 @@ def _run_dask(fn, todo, client, fixed, n_workers, finished, failed, *, poll=5.0,
         client = own = local_client(n_workers)
     elif isinstance(client, str):
         client = own = Client(client)
-    topic = None
+    sweep_id = None
     try:
         if on_stage is not None:            # the workers' stage reports, as Dask events
-            topic = f"nscd-sweep-{uuid.uuid4().hex[:12]}"
-            client.subscribe_topic(topic, lambda ev: on_stage(ev[1]["id"], ev[1]["desc"],
-                                                              ev[1]["done"], ev[1]["total"]))
+            sweep_id = uuid.uuid4().hex[:12]
+            _LISTENERS[sweep_id] = on_stage
+            client.subscribe_topic(TOPIC, _dispatch)
 
         def submit(row):
             row["attempts"] += 1
             # pure=False: a retry is a new task, never the cached failed one
             return client.submit(run_case, fn, row["params"], fixed,
-                                 None if topic is None else (topic, row["id"]), pure=False,
+                                 None if sweep_id is None else (sweep_id, row["id"]),
+                                 pure=False,
                                  key=f"{row['id']}-a{row['attempts']}")
 
         futures = {submit(row): row for row in todo}
@@ -674,11 +706,13 @@ def _run_dask(fn, todo, client, fixed, n_workers, finished, failed, *, poll=5.0,
                     finished(row, payload)
                 fut.release()
     finally:
-        if topic is not None:
-            try:
-                client.unsubscribe_topic(topic)
-            except Exception:  # noqa: BLE001 - a closed client has nothing to undo
-                pass
+        if sweep_id is not None:
+            _LISTENERS.pop(sweep_id, None)
+            if not _LISTENERS:
+                try:
+                    client.unsubscribe_topic(TOPIC)
+                except Exception:  # noqa: BLE001 - a closed client has nothing to undo
+                    pass
         if own is not None:
             cluster = getattr(own, "cluster", None)
             own.close()

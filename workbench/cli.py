@@ -41,12 +41,14 @@ from typing import Literal, Optional
 
 from pydantic import BaseModel, ConfigDict, Field, ValidationError, model_validator
 
+from engine.checks import NumbersOnly
+
 from .render import CAMERAS, PRESETS  # noqa: E402  (no PyVista import: it is lazy there)
 
 
 # ---------------------------------------------------------------- configuration files
 
-class _Strict(BaseModel):
+class _Strict(NumbersOnly):
     model_config = ConfigDict(extra="forbid")
 
 
@@ -79,12 +81,11 @@ class SolverParams(_Strict):
 
     @model_validator(mode="after")
     def _hot_alone(self):
-        if self.hot_sweeps and self.anderson > 0:
-            raise ValueError(f"hot_sweeps = {self.hot_sweeps} needs anderson = 0 (got "
-                             f"{self.anderson})")
-        if self.relax > 1 and (self.anderson > 0 or self.threads > 1):
-            raise ValueError(f"relax = {self.relax:g} > 1 needs anderson = 0 (got "
-                             f"{self.anderson}) and threads = 1 (got {self.threads})")
+        from engine.model import solver_conflict
+
+        problem = solver_conflict(self.hot_sweeps, self.anderson, self.relax, self.threads)
+        if problem:
+            raise ValueError(problem)
         return self
 
 
@@ -95,17 +96,32 @@ class TriaxialParams(SolverParams):
     target_I: float = Field(5e-4, gt=0, le=0.1)
     allow_dynamic: bool = False
     iso_max_steps: int = Field(4000, ge=1)
+    iso_tol: float = Field(0.02, gt=0, lt=1,
+                           description="the isotropic stage ends when the stresses are "
+                                       "within this fraction of the pressure ...")
+    iso_hold: int = Field(5, ge=1, description="... for this many checks in a row")
+    ramp_steps: int = Field(400, ge=0, description="steps over which the pressure is raised")
 
 
 class CylinderParams(TriaxialParams):
     axial_strain: float = Field(0.1, gt=0, le=0.5)
     mu_wall: float = Field(0.5, ge=0, le=10, description="friction of the cylinder and plates")
+    compaction_mu: Optional[float] = Field(None, ge=0.1, le=10,
+                                           description="friction of the isotropic stage "
+                                                       "(None: the test's own)")
+    confine_every: int = Field(10, ge=1, description="steps between confinement updates")
     torus_strains: list[float] = [0.02, 0.05, 0.1]
 
 
 class BoxParams(TriaxialParams):
     mu_wall: float = Field(0.0, ge=0, le=10, description="friction of the six walls")
     bead_radius: Optional[float] = Field(None, gt=0, description="[m]")
+    compaction_mu: Optional[float] = Field(None, ge=0, le=10,
+                                           description="friction of the isotropic stage "
+                                                       "(None: the test's own)")
+    wall_mass: Optional[float] = Field(None, gt=0,
+                                       description="[kg] (None: 0.2 x the sample's mass)")
+    check_every: int = Field(10, ge=1, description="steps between isotropic-stage checks")
 
 
 class SlopeParams(SolverParams):

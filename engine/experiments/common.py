@@ -147,11 +147,14 @@ def report_stages_to(fn):
 
 class Stages:
     """Runs a test in chunks (so drivers can be updated between them), with one tqdm bar,
-    counts non-converged steps, stops on Ctrl-C, and keeps the recorders."""
+    counts non-converged steps, stops on Ctrl-C, and keeps the recorders.  After each
+    chunk it reports ``(test name[, stage], steps done, total)`` to the function set by
+    :func:`report_stages_to`, if any (``total``: the test's upper bound on its steps)."""
 
     def __init__(self, model, state, writers, *, progress, total, desc):
         self.model, self.state, self.writers = model, state, list(writers)
         self.desc, self.total = desc, int(total)
+        self.stage = None
         self.report = _REPORT.get()
         self.steps = 0
         self.wall_time = 0.0  # [s] spent in the steps (writers included), not in the set-up
@@ -175,10 +178,18 @@ class Stages:
             self.bar.update(s.steps)
             self.bar.set_postfix(nc=len(self.non_converged), refresh=False)
         if self.report is not None:
-            self.report(self.desc, self.steps, self.total)
+            self.report(self.desc if self.stage is None else f"{self.desc}, {self.stage}",
+                        self.steps, self.total)
         if s.interrupted:
             self.interrupted = True
         return not s.interrupted
+
+    def set_stage(self, name):
+        """Name the stage now running (``"isotropic"``, ``"loading"``): the bar and the
+        reports show it after the test's name."""
+        self.stage = name
+        if self.bar is not None:
+            self.bar.set_description(f"{self.desc}, {name}", refresh=False)
 
     def record_last(self):
         """The state reached, to every writer that has not recorded this step

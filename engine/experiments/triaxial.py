@@ -260,10 +260,12 @@ def cylinder_triaxial(scale: float = 0.05, *, pressure: float = 15e3, wire: bool
             confine()
             return (-np.trace(stresses(model, state)[0]) / 3, sigma_top)
 
+        stages.set_stage("isotropic")
         iso_reached = _isotropic(stages, confine_every, iso_max_steps, ramp_steps, p,
                                  set_pressure, measure, iso_tol, iso_hold)
         # stage 2: triaxial
         stage["value"] = 1
+        stages.set_stage("loading")
         H0 = state.position[top, 2] - state.position[floor, 2]
         x_ref["pos"] = state.position.copy()
         R0 = conf.radius
@@ -550,10 +552,12 @@ def box_triaxial(scale: float = 0.05, *, pressure: float = 15e3, wire: bool = Tr
             return (-np.trace(_weber(model, state, "all", Lx * Ly * H)) / 3,
                     *wall_sigma(model, state))
 
+        stages.set_stage("isotropic")
         iso_reached = _isotropic(stages, check_every, iso_max_steps, ramp_steps, p,
                                  lambda v: setattr(p_now, "value", v), measure, iso_tol,
                                  iso_hold)
         stage["value"] = 1
+        stages.set_stage("loading")
         H0 = dims(state)[2]
         ref = state.position.copy()
         model = stages.model = model.with_drive(top, velocity=(0.0, 0.0, -rate * H0))

@@ -106,6 +106,10 @@ BAD = {
     "dt string": (_compile(dt="1e-5"), r"^Options: dt = '1e-5': must be a finite number > 0, not a string$"),
     "max_iter string": (_compile(max_iter="10"), r"max_iter = '10': must be an integer >= 1, not a string$"),
     "mu string": (lambda: laws.Coulomb(mu="0.3"), r"^Coulomb: mu = '0.3': must be a number >= 0, not a string$"),
+    "gravity strings": (lambda: _base().compile(dt=1e-4)[0].with_options(gravity=("0", "0", "-9.81")), r"gravity = \('0', '0', '-9.81'\): must be numbers, not strings$"),
+    "max_iter bool": (_compile(max_iter=True), r"max_iter = True: must be an integer >= 1, not a bool$"),
+    "theta numpy bool": (_compile(theta=np.True_), r"theta = (np\.)?True_?: must be a number in \[0.5, 1\], not a bool$"),
+    "tol numpy string": (_compile(tol=np.str_("1e-4")), r"tol = (np\.str_\()?'1e-4'\)?: must be a finite number > 0, not a string$"),
     "stiffness bytes": (lambda: laws.ElasticWire(stiffness=b"1"), r"stiffness = b'1': must be a finite number > 0, not a string$"),
     "mu negative": (lambda: laws.Coulomb(mu=-0.1), r"Coulomb: mu = -0.1: must be a number >= 0$"),
     "mu nan": (lambda: laws.Coulomb(mu=np.nan), r"Coulomb: mu = nan: must be a number >= 0$"),
@@ -143,9 +147,12 @@ def test_no_spheres_is_an_empty_addition():
     """add_spheres of zero centres (a filter that kept none) adds nothing and returns no ids."""
     s = _base()
     n = s.n_bodies
-    for radii in (1e-3, np.zeros(0)):
-        ids = s.add_spheres(np.zeros((0, 3)), radii, density=2650.0)
+    for centers, radii in ((np.zeros((0, 3)), 1e-3), (np.zeros((0, 3)), np.zeros(0)),
+                           ([], 1e-3)):
+        ids = s.add_spheres(centers, radii, density=2650.0)
         assert ids.shape == (0,) and ids.dtype == np.int32
+    with pytest.raises(ValueError, match="radii must be finite and > 0 m, got -1"):
+        s.add_spheres([], -1, density=2650.0)          # checked with no centre too
     assert s.n_bodies == n
 
 

@@ -50,7 +50,7 @@ def test_info_render_export(demo, tmp_path, capsys):
      "3 problem(s) (box_triaxial)\n  sede = 1: unknown field (the fields are: test, scale, seed"),
     ('test = = 1', "not valid TOML"),
     ('test = "slope_deposit"\n[parameters]\nanderson = 4\nhot_sweeps = 2\n',
-     "hot_sweeps = 2 needs anderson = 0 (got 4)"),
+     "hot_sweeps=2 works with the unmixed sweep only: set anderson=0 (got 4)"),
 ])
 def test_bad_config_gives_one_clear_message(tmp_path, capsys, toml, expected):
     p = tmp_path / "c.toml"
@@ -115,21 +115,42 @@ def test_run_help_lists_every_parameter_with_its_range(capsys):
         assert f"  {name}: " in out
 
 
+#: keywords of the test functions a run file does not set: the outputs, the wire (its
+#: [wire] table) and the sample size and seed (top level)
+NOT_IN_PARAMETERS = {"scale", "seed", "wire", "wire_law", "history", "progress"}
+
+
 @pytest.mark.parametrize("test", sorted(cli._PARAMS))
 def test_run_file_defaults_are_the_test_functions(test):
-    """A key left out of a run file runs with the Python function's default: every
-    [parameters] key is a keyword of the test function, with the same default."""
+    """A key left out of a run file runs with the Python function's default: every keyword
+    of the test function is a [parameters] key (or set elsewhere in the file), with the
+    same default, and that default is inside the key's own range."""
     import inspect
 
     from engine import experiments
 
     sig = inspect.signature(getattr(experiments, test)).parameters
-    for name, f in cli._PARAMS[test].model_fields.items():
-        assert name in sig, f"{test}: {name} is not a keyword of the function"
+    cls = cli._PARAMS[test]
+    assert set(cls.model_fields) == set(sig) - NOT_IN_PARAMETERS
+    for name, f in cls.model_fields.items():
         want = sig[name].default
         got = f.default
         assert (list(got) if isinstance(got, (list, tuple)) else got) == \
             (list(want) if isinstance(want, (list, tuple)) else want), (test, name, got, want)
+    cls(**{n: f.default for n, f in cls.model_fields.items()})   # validated, unlike defaults
+    assert sig["seed"].default == cli.RunConfig.model_fields["seed"].default
+
+
+def test_run_file_numbers_are_not_strings(tmp_path, capsys):
+    cfg = tmp_path / "s.toml"
+    cfg.write_text('test = "slope_deposit"\nscale = "0.02"\n[parameters]\ndt = "1e-5"\n'
+                   'steps = true\n')
+    assert cli.main(["run", str(cfg), "--out", str(tmp_path / "o")]) == 2
+    err = capsys.readouterr().err
+    for line in ("scale = '0.02': must be a number in (0, 1], not a string",
+                 "parameters.dt = '1e-5': must be a number in (0, 0.01], not a string",
+                 "parameters.steps = True: must be an integer >= 1, not a bool"):
+        assert line in err, (line, err)
 
 
 def test_render_camera_choices_are_the_presets(capsys):

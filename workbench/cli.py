@@ -316,7 +316,8 @@ def figures_of(result, out: Path) -> list[Path]:
     paths.append(figures.convergence_figure(h.iterations, h.residual, out / "convergence.png",
                                             tol=result.params.get("tol"),
                                             max_iter=result.params.get("max_iter"),
-                                            step=h.step))
+                                            step=h.step, n_contacts=h.n_contacts,
+                                            converged=h.converged))
     return paths
 
 

@@ -177,28 +177,56 @@ def directions_figure(before, after, path) -> Path:
 
 
 def convergence_figure(iterations, residual, path, *, tol=None, max_iter=None,
-                       step=None) -> Path:
-    """NLGS sweeps and final residual of the recorded steps (a step at max_iter did not
-    converge), against their step numbers ``step`` (the history's ``step``; the record
-    index when not given)."""
-    fig, ax = _axes(2, 1, size=(6.4, 5.0))
+                       step=None, n_contacts=None, converged=None) -> Path:
+    """How hard the NLGS worked on the recorded steps, against their step numbers ``step``
+    (the history's ``step``; the record index when not given): the sweeps per step with
+    ``max_iter``; the final residual, over ``tol`` when given (a converged step sits at or
+    below 1, so the panel shows how far the others stopped from it); and the contact count
+    ``n_contacts`` (the size of the problem) when given.  Steps that did not converge
+    (``converged`` False, the history's flag; without it, residual above ``tol``) are marked
+    in red in every panel, and the title counts them."""
     it = np.asarray(iterations)
+    res = np.asarray(residual, dtype=float)
     x = np.arange(it.size) if step is None else np.asarray(step)
     if x.shape != it.shape:
         raise ValueError(f"step must have one entry per record ({it.size}), got {x.shape}")
-    ax[0, 0].plot(x, it, lw=0.8)
-    if max_iter:
-        ax[0, 0].axhline(max_iter, color="r", ls="--", lw=0.8, label="max_iter")
-        ax[0, 0].legend(fontsize=8)
-    ax[0, 0].set_ylabel("NLGS sweeps")
-    ax[1, 0].semilogy(x, np.asarray(residual), lw=0.8)
-    if tol:
-        ax[1, 0].axhline(tol, color="r", ls="--", lw=0.8, label="tol")
-        ax[1, 0].legend(fontsize=8)
-    ax[1, 0].set_ylabel("residual (Quad norm)")
-    ax[1, 0].set_xlabel("record" if step is None else "step")
-    for a in ax[:, 0]:
+    if res.shape != it.shape:
+        raise ValueError(f"residual must have one entry per record ({it.size}), got {res.shape}")
+    nc = None if n_contacts is None else np.asarray(n_contacts)
+    if nc is not None and nc.shape != it.shape:
+        raise ValueError(f"n_contacts must have one entry per record ({it.size}), got {nc.shape}")
+    fig, ax = _axes(2 if nc is None else 3, 1, size=(6.4, 5.0 if nc is None else 6.6))
+    if converged is not None:
+        bad = ~np.asarray(converged, dtype=bool)
+        if bad.shape != it.shape:
+            raise ValueError(f"converged must have one entry per record ({it.size}), got "
+                             f"{bad.shape}")
+    else:
+        bad = res > tol if tol else np.zeros(it.size, bool)
+    rel = res / tol if tol else res
+    panels = [(it, "NLGS sweeps per step"),
+              (rel, "final residual / tol" if tol else "final residual (Quad norm)")]
+    if nc is not None:
+        panels.append((nc, "contacts"))
+    for a, (y, label) in zip(ax[:, 0], panels):
+        a.plot(x, y, lw=0.8, color="C0")
+        if bad.any():
+            a.plot(x[bad], y[bad], "o", ms=3, color="C3", label="not converged")
+        a.set_ylabel(label)
         a.grid(alpha=0.3)
+    if max_iter:
+        ax[0, 0].axhline(max_iter, color="C3", ls="--", lw=0.8, label="max_iter")
+    ax[1, 0].set_yscale("log")
+    if tol:
+        ax[1, 0].axhline(1.0, color="C3", ls="--", lw=0.8, label="tol")
+        lo = min(0.1, float(np.nanmin(rel[rel > 0])) / 2) if (rel > 0).any() else 0.1
+        ax[1, 0].set_ylim(lo, max(10.0, 2 * float(np.nanmax(rel))))
+    for a in ax[:2, 0]:
+        a.legend(fontsize=8, loc="upper right")
+    ax[-1, 0].set_xlabel("record" if step is None else "step")
+    ax[0, 0].set_title(f"{int(bad.sum())} of {it.size} recorded steps not converged; "
+                       f"mean {it.mean():.0f} sweeps" if it.size else "no recorded step",
+                       fontsize=10)
     return _save(fig, path)
 
 

@@ -1114,6 +1114,7 @@ def build_report(out="out/paper", scale="default", *, scheduler=None, progress=T
                          f"got {threads!r}")
     chosen = select_claims(only, scale)
     t0 = time.perf_counter()
+    commit = _git_commit()            # the code the runs import now, not at the end
     out = Path(out)
     runs_dir, fig_dir, series_dir = out / "runs", out / "figures", out / "series"
     for d in (runs_dir, fig_dir, series_dir):
@@ -1145,8 +1146,11 @@ def build_report(out="out/paper", scale="default", *, scheduler=None, progress=T
     problems += pr
     wall = time.perf_counter() - t0
     path = out / "report.md"
+    end_commit = _git_commit()
+    if end_commit != commit:
+        commit += f"; {end_commit} when the report was written (the runs used the first)"
     path.write_text(_markdown(scale, claims, figs, pvds, table, rows, curves, out, wall,
-                              t_sim, problems, scheduler, chosen, threads))
+                              t_sim, problems, scheduler, chosen, threads, commit))
     (out / "claims.json").write_text(json.dumps([c.__dict__ for c in claims], indent=1,
                                                 ensure_ascii=False))
     return Report(path, claims, figs, table, wall, problems)
@@ -1180,7 +1184,7 @@ def _rel(p, out):
 
 
 def _markdown(scale, claims, figs, pvds, table, rows, curves, out, wall, t_sim, problems,
-              scheduler, chosen=None, threads=None) -> str:
+              scheduler, chosen=None, threads=None, commit=None) -> str:
     L = []
     now = _dt.datetime.now().strftime("%Y-%m-%d %H:%M")
     counts = {s: sum(c.status == s for c in claims)
@@ -1190,7 +1194,8 @@ def _markdown(scale, claims, figs, pvds, table, rows, curves, out, wall, t_sim, 
           f"Built {now} by `nscd paper --scale {scale.name}"
           f"{' --only ' + ','.join(chosen) if chosen is not None else ''}"
           f"{f' --threads {threads}' if threads is not None else ''}` (nscd-workbench commit "
-          f"{_git_commit()}), Python {platform.python_version()} on {os.cpu_count()} cores; "
+          f"{commit or _git_commit()}), Python {platform.python_version()} on "
+          f"{os.cpu_count()} cores; "
           f"cluster: {scheduler or 'LocalCluster, 2 workers'}; NLGS threads per run: "
           f"{threads or 1} in this build (runs reused from earlier builds keep theirs).",
           f"Wall time {wall:.0f} s, of which simulations {t_sim:.0f} s "

@@ -210,7 +210,7 @@ def test_fig13c_needs_a_mid_height_excess_beyond_the_seed_spread():
 
 
 @pytest.mark.timeout(600)
-def test_nscd_paper_tiny(tmp_path):
+def test_nscd_paper_tiny(tmp_path, monkeypatch):
     out = tmp_path / "paper"
     cmd = [sys.executable, "-m", "workbench.cli", "paper", "--scale", "tiny", "--out", str(out)]
     p = subprocess.run(cmd, capture_output=True, text=True, timeout=540)
@@ -264,6 +264,14 @@ def test_nscd_paper_tiny(tmp_path):
     assert "## Table 2" not in report and "series/" not in report
     assert (out / "figures" / "fig07_tortuosity.png").stat().st_mtime_ns == fig07
     assert len(re.findall(r"^\| cylinder_\w+\.?\w* \| done", report, re.M)) == 6
+    # the commit is read when the build starts (the code the runs import); a change of
+    # HEAD during the build is reported beside it
+    import workbench.paper as wp
+    heads = iter(["aaaa111", "bbbb222"])
+    monkeypatch.setattr(wp, "_git_commit", lambda: next(heads))
+    wp.build_report(out, "tiny", scheduler="serial", render=False, only="fig14", progress=False)
+    assert ("commit aaaa111; bbbb222 when the report was written (the runs used the first)"
+            in (out / "report.md").read_text())
 
 
 def test_sweep_grid_parsing():

@@ -23,7 +23,7 @@ Each claim gets a verdict:
 
 Scales (:data:`SCALES`): ``tiny`` (a smoke test, a few minutes on two cores), ``default``
 (reduced samples, about 16 minutes on two cores), ``paper`` (the paper's sample sizes: 42
-minutes on two cores for Fig. 11-16, about 7 hours more for the slope runs of Fig. 7-10;
+minutes on two cores for Fig. 11-16, about 8 hours more for the 9 slope runs of Fig. 7-10;
 ``only=`` takes some claims alone, ``--scheduler`` a cluster).
 """
 from __future__ import annotations
@@ -101,9 +101,9 @@ SCALES = {
                       frames=1000),
         fig14_seeds=(0, 1, 2), k_list=tuple(PAPER_VALUES["table2_k"]),
         description="the paper's sample sizes (26 000 / 6 500 / 6 200 grains); on two cores "
-                    "the box and cylinder claims (Fig. 11-16) took 42 min and the 9 slope runs "
-                    "would take about 7 h more (projected): use --only or a cluster "
-                    "(--scheduler)"),
+                    "the box and cylinder claims (Fig. 11-16) took 42 min, and a slope run "
+                    "95-106 min two at a time, so about 8 h for the 9: use --only or a "
+                    "cluster (--scheduler)"),
 }
 
 R_MIN_BOX = 0.23e-3          # the box sample's smallest grain radius [m] (r_w of Fig. 12)

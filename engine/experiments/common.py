@@ -202,6 +202,13 @@ class Stages:
 
     def close(self):
         if self.bar is not None:
+            if (not self.interrupted and sys.exc_info()[0] is None
+                    and self.bar.n < self.bar.total):
+                # ``total`` is an upper bound (the isotropic stage ends when it is reached):
+                # a test that finished ends its bar at 100 %, not at the share of that
+                # bound (one stopped by Ctrl-C or an error keeps it)
+                self.bar.total = self.bar.n
+                self.bar.refresh()
             self.bar.close()
 
     def convergence(self, limit):

@@ -130,6 +130,24 @@ def choose_rate(rate, pressure, d_mean, density, *, target_I, allow_dynamic):
     return rate, I
 
 
+#: The wire stiffness k [N] of the tests' default law, the paper's ElasticWire(k = 1 N)
+#: (§3.3; the slope's is not given, the same is used).
+DEFAULT_WIRE_STIFFNESS = 1.0
+
+
+def wire_law_or_default(wire_law):
+    """``wire_law`` checked to be a wire law, or the tests' default
+    ``ElasticWire(DEFAULT_WIRE_STIFFNESS)`` for None."""
+    from .. import laws
+
+    if wire_law is None:
+        return laws.ElasticWire(stiffness=DEFAULT_WIRE_STIFFNESS)
+    if not isinstance(wire_law, laws.WireLaw):
+        raise ValueError(f"wire_law must be a wire law (engine.laws.RigidWire(), "
+                         f"ElasticWire(k) ...), got {wire_law!r}")
+    return wire_law
+
+
 _REPORT = contextvars.ContextVar("nscd_stage_report", default=None)
 
 

@@ -15,7 +15,7 @@ from ..prep import slope_sample
 from ..prep.relax import kinetic_energy
 from ..scene import Scene
 from .common import (Recorder, Stages, check_positive, check_scale, finish, history_writer,
-                     solver_choice)
+                     solver_choice, wire_law_or_default)
 
 __all__ = ["slope_deposit", "SlopeResult", "hex_floor"]
 
@@ -126,7 +126,7 @@ def slope_deposit(scale: float = 0.02, *, wire: bool = True, wire_density: float
         raise ValueError(f"steps must be >= 1, got {steps!r}")
     if int(record_every) < 1:
         raise ValueError(f"record_every must be >= 1, got {record_every!r}")
-    law = (laws.ElasticWire(stiffness=1.0) if wire_law is None else wire_law) if wire else None
+    law = wire_law_or_default(wire_law) if wire else None
     sample = slope_sample(scale, wire=wire, wire_density=wire_density, seed=seed)
     R = sample.container.radius
     lift = 2 * rubber_radius

@@ -43,7 +43,7 @@ from ..drivers import Confinement
 from ..prep import Box, Cylinder, box_sample, cylinder_sample
 from ..scene import Scene
 from .common import (ConfinementError, Recorder, Stages, TestResult, check_positive, check_scale,
-                     choose_rate, finish, history_writer, solver_choice)
+                     choose_rate, finish, history_writer, solver_choice, wire_law_or_default)
 
 __all__ = ["cylinder_triaxial", "box_triaxial"]
 
@@ -115,15 +115,6 @@ RADIUS_RUNAWAY = 1.5
 CYLINDER_COMPACTION_MU_MIN = 0.1
 
 
-def _wire_law(wire_law):
-    if wire_law is None:
-        return laws.ElasticWire(stiffness=1.0)
-    if not isinstance(wire_law, laws.WireLaw):
-        raise ValueError(f"wire_law must be a wire law (engine.laws.RigidWire(), "
-                         f"ElasticWire(k) ...), got {wire_law!r}")
-    return wire_law
-
-
 def _common_checks(pressure, max_nonconverged, target_I, record_every):
     p = check_positive("pressure", pressure, "[Pa]")
     if not 0.0 <= float(max_nonconverged) <= 1.0:
@@ -179,7 +170,7 @@ def cylinder_triaxial(scale: float = 0.05, *, pressure: float = 15e3, wire: bool
     compaction_mu = _compaction_mu(compaction_mu, CYLINDER_COMPACTION_MU_MIN,
                                    " (at 0 the free-surface confinement let the "
                                    "frictionless grains out)")
-    law = _wire_law(wire_law) if wire else None
+    law = wire_law_or_default(wire_law) if wire else None
     sample = cylinder_sample(scale, wire=wire, seed=seed)
     across = 2 * sample.container.radius / (2 * float(sample.sand_radii.mean()))
     if across < 5.5:
@@ -453,7 +444,7 @@ def box_triaxial(scale: float = 0.05, *, pressure: float = 15e3, wire: bool = Tr
     p = _common_checks(pressure, max_nonconverged, target_I, record_every)
     eps_max = check_positive("axial_strain", axial_strain, "[-]")
     compaction_mu = _compaction_mu(compaction_mu)
-    law = _wire_law(wire_law) if wire else None
+    law = wire_law_or_default(wire_law) if wire else None
     sample = box_sample(scale, wire=wire, bead_radius=bead_radius, seed=seed)
     box = sample.container
     lo, hi = np.array(box.lo), np.array(box.hi)

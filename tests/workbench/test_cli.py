@@ -139,6 +139,8 @@ def test_run_file_defaults_are_the_test_functions(test):
             (list(want) if isinstance(want, (list, tuple)) else want), (test, name, got, want)
     cls(**{n: f.default for n, f in cls.model_fields.items()})   # validated, unlike defaults
     assert sig["seed"].default == cli.RunConfig.model_fields["seed"].default
+    from engine.experiments.common import DEFAULT_WIRE_STIFFNESS
+    assert cli.WireConfig.model_fields["stiffness"].default == DEFAULT_WIRE_STIFFNESS
 
 
 def test_run_file_numbers_are_not_strings(tmp_path, capsys):

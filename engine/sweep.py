@@ -630,7 +630,8 @@ def _run_todo(fn, todo, client, fixed, n_workers, finished, failed, on_stage, sh
                         on_stage(label, desc, done, total)
                         show()
                     try:
-                        payload = run_case(fn, row["params"], fixed, report=report)
+                        payload = run_case(fn, row["params"], fixed,
+                                           report=report if follow else None)
                     except Exception as e:  # noqa: BLE001 - a case's failure is data
                         if failed(row, _error_text(e, traceback.format_exc())):
                             continue

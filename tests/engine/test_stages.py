@@ -39,3 +39,22 @@ def test_an_error_or_ctrl_c_keeps_the_bar_where_it_stopped():
     st = _stages(500, 4463, interrupted=True)
     st.close()
     assert st.bar.total == 4463
+
+
+def test_the_tests_share_one_default_wire_law_and_refuse_a_contact_law(tmp_path):
+    """None gives the paper's ElasticWire(k = 1 N); a contact law is refused by every test
+    before any sample is built, naming wire_law."""
+    import pytest
+
+    from engine import laws
+    from engine.experiments import box_triaxial, cylinder_triaxial, slope_deposit
+    from engine.experiments.common import DEFAULT_WIRE_STIFFNESS, wire_law_or_default
+
+    assert wire_law_or_default(None) == laws.ElasticWire(stiffness=DEFAULT_WIRE_STIFFNESS)
+    assert DEFAULT_WIRE_STIFFNESS == 1.0
+    rigid = laws.RigidWire()
+    assert wire_law_or_default(rigid) is rigid
+    for test in (cylinder_triaxial, box_triaxial, slope_deposit):
+        with pytest.raises(ValueError, match=r"wire_law must be a wire law .*Coulomb"):
+            test(0.05, wire_law=laws.Coulomb(mu=0.3), progress=False,
+                 history=str(tmp_path / "x.h5"))

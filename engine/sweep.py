@@ -23,7 +23,7 @@ one table, written as JSON (the store of record) and HDF5::
 
 An experiment is a picklable callable (a module-level function) or the name of one of the
 paper's tests in :data:`EXPERIMENTS` (``"cylinder_triaxial"``, ``"box_triaxial"``,
-``"slope_deposit"``), whose wrappers take JSON-able parameters (``wire = "elastic" |
+``"slope_deposit"``, ``"gravity_deposit"``), whose wrappers take JSON-able parameters (``wire = "elastic" |
 "rigid" | "none"`` and ``k`` [N] instead of a law object) and return the test's scalars
 (:func:`scalars_of`).  Parameters must be JSON-able (numbers, strings, booleans, None,
 lists): they are the case's key.  Results: numbers, booleans, strings and None go into the
@@ -142,7 +142,8 @@ def _law(wire, k):
 
 def scalars_of(result) -> dict:
     """The scalar results of a :class:`engine.experiments.TestResult` or
-    :class:`engine.experiments.SlopeResult`: final values, convergence, H (Table 2) ..."""
+    :class:`engine.experiments.SlopeResult` or :class:`engine.experiments.DepositResult`:
+    final values, convergence, H (Table 2) ..."""
     c = result.convergence or {}
     out = dict(steps=c.get("steps"), non_converged=c.get("non_converged"),
                non_converged_share=c.get("share"), history=getattr(result, "history", None))
@@ -165,11 +166,14 @@ def scalars_of(result) -> dict:
                        H_start_stress=H.start_point[1])
         elif "H_error" in result.extra:
             out["H_error"] = result.extra["H_error"]
-    else:                                                     # slope deposit
-        out.update(max_slope_deg=result.max_slope_deg, at_rest=bool(result.at_rest),
-                   floor_force=result.floor_force, weight=result.weight,
-                   lost_particles=result.params.get("lost_particles"),
+    else:                                                     # the deposits
+        out.update(at_rest=bool(result.at_rest), weight=result.weight,
                    n_sand=result.params.get("n_sand"), n_beads=result.params.get("n_beads"))
+        if hasattr(result, "max_slope_deg"):                  # slope deposit
+            out.update(max_slope_deg=result.max_slope_deg, floor_force=result.floor_force,
+                       lost_particles=result.params.get("lost_particles"))
+        else:                                                 # deposit under gravity
+            out.update(settlement=result.settlement, wall_force=result.wall_force)
         if result.wire_before is not None:
             out.update(tortuosity_before=result.wire_before.tortuosity,
                        tortuosity_after=result.wire_after.tortuosity)
@@ -235,7 +239,8 @@ def _check_paper_cases(name, cases, fixed) -> None:
 
 #: The paper's tests by name, as sweep experiments (JSON-able parameters in, scalars out).
 EXPERIMENTS: dict[str, Callable] = {n: _paper_test(n) for n in
-                                    ("cylinder_triaxial", "box_triaxial", "slope_deposit")}
+                                    ("cylinder_triaxial", "box_triaxial", "slope_deposit",
+                                     "gravity_deposit")}
 
 
 def _resolve(experiment) -> Callable:

@@ -17,7 +17,7 @@
 
 A TOML file for ``nscd run``::
 
-    test = "cylinder_triaxial"        # or "box_triaxial", "slope_deposit"
+    test = "cylinder_triaxial"        # or "box_triaxial", "slope_deposit", "gravity_deposit"
     scale = 0.05                       # 1: the paper's size
     seed = 0
     [parameters]                       # the test function's keyword arguments
@@ -136,8 +136,22 @@ class SlopeParams(SolverParams):
     frames: int = Field(200, ge=0)
 
 
+class DepositParams(SolverParams):
+    dt: float = Field(1e-4, gt=0, le=1e-2, description="time step [s]")
+    tol: float = Field(1e-4, gt=0, lt=1)
+    sample: Literal["slope", "cylinder", "box"] = Field(
+        "slope", description="the paper's sample relaxed in its mould")
+    wire_density: Optional[float] = Field(None, ge=0,
+                                          description="[m/m³] (slope and cylinder samples)")
+    steps: int = Field(6000, ge=1)
+    ke_fraction: float = Field(1e-4, gt=0, lt=1)
+    mu_wall: float = Field(0.5, ge=0, le=10, description="friction of the mould")
+    record_every: int = Field(20, ge=1)
+    frames: int = Field(200, ge=0)
+
+
 _PARAMS = {"cylinder_triaxial": CylinderParams, "box_triaxial": BoxParams,
-           "slope_deposit": SlopeParams}
+           "slope_deposit": SlopeParams, "gravity_deposit": DepositParams}
 
 
 def _default_scale(test: str) -> float:
@@ -149,7 +163,7 @@ def _default_scale(test: str) -> float:
 
 
 class RunConfig(_Strict):
-    test: Literal["cylinder_triaxial", "box_triaxial", "slope_deposit"]
+    test: Literal["cylinder_triaxial", "box_triaxial", "slope_deposit", "gravity_deposit"]
     scale: Optional[float] = Field(None, gt=0, le=1.0,
                                    description="sample size (1: the paper's); default: the "
                                                "test function's own")
@@ -392,7 +406,7 @@ def cmd_run(a) -> int:
     out = Path(a.out or Path("out") / Path(a.config).stem)
     res = run_config(cfg, params, out)
     print(res)
-    if cfg.test != "slope_deposit":
+    if cfg.test not in ("slope_deposit", "gravity_deposit"):
         figures_of(res, out)
     return 0
 
@@ -525,7 +539,8 @@ def parser() -> argparse.ArgumentParser:
     pp.add_argument("--no-render", action="store_true", help="skip the PyVista snapshots")
     pp.set_defaults(fn=cmd_paper)
     sw = sub.add_parser("sweep", help="run a test over a grid of parameters on Dask")
-    sw.add_argument("test", help="cylinder_triaxial, box_triaxial or slope_deposit")
+    sw.add_argument("test", help="cylinder_triaxial, box_triaxial, slope_deposit or "
+                                 "gravity_deposit")
     sw.add_argument("--grid", action="append", metavar="NAME=V1,V2",
                     help="a parameter and its values (repeat; the cases are the product); "
                          "wire=elastic|rigid|none and k=... [N] choose the wire law")

@@ -236,6 +236,103 @@ class Stages:
                     non_converged_steps=self.non_converged[:1000])
 
 
+def run_to_rest(stages: Stages, steps: int, every: int, ke_fraction: float, energy) -> bool:
+    """Run ``stages`` in chunks of ``every`` steps until ``energy()`` [J] (read after each
+    chunk) is at most ``ke_fraction`` of its peak so far, or ``steps`` steps in all, or an
+    interruption; then hand the end state to the writers (:meth:`Stages.record_last`).
+    The criterion is looked at after 10 chunks (a sample released at rest gains energy
+    first).  Returns whether the rest criterion was met."""
+    peak = 0.0
+    at_rest = False
+    while stages.steps < steps:
+        if not stages.run(min(every, steps - stages.steps)):
+            break
+        ke = energy()
+        peak = max(peak, ke)
+        if stages.steps >= 10 * every and peak > 0 and ke <= ke_fraction * peak:
+            at_rest = True
+            break
+    stages.record_last()
+    return at_rest
+
+
+def check_rest_run(steps, ke_fraction, record_every) -> None:
+    """The arguments of a run to rest (:func:`run_to_rest`), checked up front."""
+    if not 0 < float(ke_fraction) < 1:
+        raise ValueError(f"ke_fraction must be in (0, 1), got {ke_fraction!r}")
+    if int(steps) < 1:
+        raise ValueError(f"steps must be >= 1, got {steps!r}")
+    if int(record_every) < 1:
+        raise ValueError(f"record_every must be >= 1, got {record_every!r}")
+
+
+def wire_histograms(chains) -> dict:
+    """Direction histograms of the wire elements in the three planes, 18 bins (Fig. 8-9)."""
+    from ..analysis.wire import direction_histogram
+
+    return {pl: direction_histogram(chains, pl, bins=18) for pl in ("xy", "xz", "yz")}
+
+
+@dataclass(kw_only=True)
+class RestResult:
+    """The fields of a deposit's result (a sample run under gravity until it is at rest):
+    :class:`engine.experiments.SlopeResult` and :class:`engine.experiments.DepositResult`
+    add their own."""
+
+    name: str
+    time: np.ndarray
+    kinetic_energy: np.ndarray
+    wire_before: object
+    wire_after: object
+    histograms_before: dict
+    histograms_after: dict
+    weight: float
+    at_rest: bool
+    history: str
+    params: dict = field(default_factory=dict)
+    convergence: dict = field(default_factory=dict)
+
+
+def wire_before_after(chains0, chains1, volume) -> dict:
+    """The wire fields of a deposit's result: statistics (tortuosity ξ, Fig. 7; orientation;
+    length density over ``volume`` [m³]) and direction histograms (Fig. 8-9) of the chains
+    before (``chains0``) and after (``chains1``); None and {} without a wire."""
+    from ..analysis.wire import wire_stats
+
+    if not chains0:
+        return dict(wire_before=None, wire_after=None, histograms_before={},
+                    histograms_after={})
+    return dict(wire_before=wire_stats(chains0, volume), wire_after=wire_stats(chains1, volume),
+                histograms_before=wire_histograms(chains0),
+                histograms_after=wire_histograms(chains1))
+
+
+def rest_recording(model, state, ids, *, history, record_every, frames, progress, steps,
+                   desc):
+    """The writers and stages of a run to rest: a :class:`Recorder` of the time and the
+    kinetic energy of ``ids`` [J], its HDF5 history, and the :class:`Stages` running both;
+    returns (recorder, history, stages)."""
+    from ..analysis.energy import kinetic_energy
+
+    rec = Recorder({"time": lambda m, s: s.time,
+                    "kinetic_energy": lambda m, s: kinetic_energy(m, s, ids)}, record_every)
+    hist = history_writer(history, rec, {"time": "s", "kinetic_energy": "J"}, record_every,
+                          frames)
+    return rec, hist, Stages(model, state, [rec, hist], progress=progress, total=steps,
+                             desc=desc)
+
+
+def rest_summary(result, middle: str) -> str:
+    """One line on a run to rest: name, at rest or not after how many steps, ``middle``
+    (the test's own numbers), the wire's tortuosity before and after, the history."""
+    s = (f"{result.name}: {'at rest' if result.at_rest else 'NOT at rest'} after "
+         f"{result.convergence.get('steps', 0)} steps; {middle}")
+    if result.wire_before is not None:
+        s += (f"; tortuosity {result.wire_before.tortuosity:.0f} -> "
+              f"{result.wire_after.tortuosity:.0f} 1/m")
+    return s + f"; history {result.history}"
+
+
 class Recorder:
     """A writer computing named quantities ``fn(model, state)`` every ``every`` steps and
     keeping them in lists (``rows``); ``last`` holds the latest values, which the HDF5

@@ -4,26 +4,27 @@ from __future__ import annotations
 
 import math
 import warnings
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 
 import numpy as np
 
 from .. import laws
 from ..analysis import slope_profile
-from ..analysis.wire import direction_histogram, wire_chains, wire_stats
+from ..analysis.wire import wire_chains
 from ..prep import slope_sample
 from ..prep.relax import kinetic_energy
 from ..scene import Scene
-from .common import (Recorder, Stages, check_positive, check_scale, finish, history_writer,
-                     solver_choice, wire_law_or_default)
+from .common import (RestResult, check_positive, check_rest_run, check_scale, finish,
+                     rest_recording, rest_summary, run_to_rest, solver_choice,
+                     wire_before_after, wire_law_or_default)
 
 __all__ = ["slope_deposit", "SlopeResult", "hex_floor"]
 
 G = 9.81
 
 
-@dataclass
-class SlopeResult:
+@dataclass(kw_only=True)
+class SlopeResult(RestResult):
     """What :func:`slope_deposit` returns.
 
     Attributes
@@ -44,32 +45,14 @@ class SlopeResult:
     at_rest : bool;  history : str;  params, convergence : dict
     """
 
-    name: str
     profile: object
     max_slope_deg: float
     sector_heights: np.ndarray
     floor_force: float
-    weight: float
-    time: np.ndarray
-    kinetic_energy: np.ndarray
-    wire_before: object
-    wire_after: object
-    histograms_before: dict
-    histograms_after: dict
-    at_rest: bool
-    history: str
-    params: dict = field(default_factory=dict)
-    convergence: dict = field(default_factory=dict)
 
     def __str__(self):
-        c = self.convergence
-        s = (f"{self.name}: {'at rest' if self.at_rest else 'NOT at rest'} after "
-             f"{c.get('steps', 0)} steps; max slope {self.max_slope_deg:.1f}°; floor force / "
-             f"weight = {self.floor_force / self.weight:.4f}")
-        if self.wire_before is not None:
-            s += (f"; tortuosity {self.wire_before.tortuosity:.0f} -> "
-                  f"{self.wire_after.tortuosity:.0f} 1/m")
-        return s + f"; history {self.history}"
+        return rest_summary(self, f"max slope {self.max_slope_deg:.1f}°; floor force / weight "
+                                  f"= {self.floor_force / self.weight:.4f}")
 
 
 def hex_floor(radius: float, extent: float, z: float = 0.0) -> np.ndarray:
@@ -82,10 +65,6 @@ def hex_floor(radius: float, extent: float, z: float = 0.0) -> np.ndarray:
     y = a * math.sqrt(3) / 2 * j
     keep = np.hypot(x, y) <= extent
     return np.stack([x[keep], y[keep], np.full(keep.sum(), z + radius)], 1)
-
-
-def _hists(chains):
-    return {pl: direction_histogram(chains, pl, bins=18) for pl in ("xy", "xz", "yz")}
 
 
 def slope_deposit(scale: float = 0.02, *, wire: bool = True, wire_density: float | None = None,
@@ -120,12 +99,7 @@ def slope_deposit(scale: float = 0.02, *, wire: bool = True, wire_density: float
     anderson, hot_sweeps = solver_choice(anderson, hot_sweeps)
     check_positive("rubber_radius", rubber_radius, "[m]")
     check_positive("floor_extent", floor_extent, "[-]")
-    if not 0 < float(ke_fraction) < 1:
-        raise ValueError(f"ke_fraction must be in (0, 1), got {ke_fraction!r}")
-    if int(steps) < 1:
-        raise ValueError(f"steps must be >= 1, got {steps!r}")
-    if int(record_every) < 1:
-        raise ValueError(f"record_every must be >= 1, got {record_every!r}")
+    check_rest_run(steps, ke_fraction, record_every)
     law = wire_law_or_default(wire_law) if wire else None
     sample = slope_sample(scale, wire=wire, wire_density=wire_density, seed=seed)
     R = sample.container.radius
@@ -149,25 +123,16 @@ def slope_deposit(scale: float = 0.02, *, wire: bool = True, wire_density: float
                               anderson=anderson, threads=threads, hot_sweeps=hot_sweeps)
     chains0 = wire_chains(model, state) if wire else []
 
-    rec = Recorder({"time": lambda m, s: s.time,
-                    "kinetic_energy": lambda m, s: kinetic_energy(m, s, ids)}, record_every)
-    hist = history_writer(history, rec, {"time": "s", "kinetic_energy": "J"}, record_every,
-                          frames)
-    stages = Stages(model, state, [rec, hist], progress=progress, total=steps,
-                    desc="slope deposit")
-    peak, at_rest = 0.0, False
+    rec, hist, stages = rest_recording(model, state, ids, history=history,
+                                       record_every=record_every, frames=frames,
+                                       progress=progress, steps=steps, desc="slope deposit")
+    def energy():
+        # grains that rolled off the floor's edge fall for good: not in the criterion
+        on_floor = np.asarray(sand)[state.position[sand, 2] >= 0.0]
+        return kinetic_energy(model, state, on_floor)
+
     try:
-        while stages.steps < steps:
-            if not stages.run(min(record_every, steps - stages.steps)):
-                break
-            # grains that rolled off the floor's edge fall for good: not in the criterion
-            on_floor = np.asarray(sand)[state.position[sand, 2] >= 0.0]
-            ke = kinetic_energy(model, state, on_floor)
-            peak = max(peak, ke)
-            if stages.steps >= 10 * record_every and peak > 0 and ke <= ke_fraction * peak:
-                at_rest = True
-                break
-        stages.record_last()
+        at_rest = run_to_rest(stages, steps, record_every, ke_fraction, energy)
     finally:
         stages.close()
         hist.close()
@@ -206,10 +171,7 @@ def slope_deposit(scale: float = 0.02, *, wire: bool = True, wire_density: float
         max_slope_deg=prof.max_slope_deg if prof is not None else float("nan"),
         sector_heights=sector_h, floor_force=-fz, weight=weight,
         time=rec.array("time"), kinetic_energy=rec.array("kinetic_energy"),
-        wire_before=wire_stats(chains0, sample.container.volume) if wire else None,
-        wire_after=wire_stats(chains1, sample.container.volume) if wire else None,
-        histograms_before=_hists(chains0) if wire else {},
-        histograms_after=_hists(chains1) if wire else {}, at_rest=at_rest,
+        **wire_before_after(chains0, chains1, sample.container.volume), at_rest=at_rest,
         history=hist.path,
         params=dict(scale=scale, wire=wire, wire_density=sample.wire_density,
                     wire_law=repr(law), steps=steps, ke_fraction=ke_fraction,

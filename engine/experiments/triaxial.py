@@ -180,7 +180,6 @@ def cylinder_triaxial(scale: float = 0.05, *, pressure: float = 15e3, wire: bool
             f"it threw grains out at tens of m/s (measured at scale 0.03)")
     sc = Scene(gravity=(0.0, 0.0, -G))
     sand, beads = sample.add_to(sc, wire_law=law) if wire else (sample.add_to(sc)[0], [])
-    ids = np.concatenate([sand, *beads]) if beads else np.asarray(sand)
     floor = sc.add_plane(point=(0, 0, 0), normal=(0, 0, 1), group="wall")
     top_z = sample.height
     d_mean = 2 * float(sample.sand_radii.mean())

@@ -1,11 +1,11 @@
-"""The paper's three mechanical tests at a small scale (§3.1-3.3)."""
-import math
+"""The paper's deposit under gravity (§2.4) and three mechanical tests (§3.1-3.3) at a small
+scale."""
 
 import numpy as np
 import pytest
 
 from engine.experiments import (ConvergenceError, box_triaxial, cylinder_triaxial,
-                                slope_deposit)
+                                gravity_deposit, slope_deposit)
 from engine.io import read_history
 
 P = 15e3
@@ -116,7 +116,38 @@ def test_slope_deposit(tmp_path):
     assert np.hypot(*com) < 0.1 * R
 
 
+def test_gravity_deposit_in_the_mould(tmp_path):
+    """Fig. 7's deposit of a geometric sample in its mould (the box sample, ~100 grains):
+    at rest the mould carries the weight, the sample lost potential energy (it started at
+    rest and contacts only dissipate), the wire is the same chain of beads, and the
+    history's first frame is the geometric sample whose tortuosity is ``wire_before``."""
+    from engine.analysis import tortuosity, wire_chains
+    from engine.io import load
+    from engine.sweep import scalars_of
+
+    r = gravity_deposit(0.02, sample="box", history=str(tmp_path / "d.h5"), progress=False)
+    assert r.at_rest, str(r)
+    assert r.wall_force == pytest.approx(r.weight, rel=0.01)
+    m0, s0 = load(r.history, frame=0)
+    m1, s1 = load(r.history, frame=-1)
+    assert s0.step == 0 and s1.step == r.convergence["steps"]
+    g = 9.81
+    pe = [float((m0.body_mass[m0.sphere_ids] * g * s.position[m0.sphere_ids, 2]).sum())
+          for s in (s0, s1)]
+    assert pe[1] < pe[0] and r.settlement > 0
+    assert tortuosity(wire_chains(m0, s0)) == pytest.approx(r.wire_before.tortuosity, rel=1e-12)
+    assert tortuosity(wire_chains(m1, s1)) == pytest.approx(r.wire_after.tortuosity, rel=1e-9)
+    assert sum(len(c) for c in wire_chains(m1, s1)) == r.params["n_beads"]
+    row = scalars_of(r)
+    assert row["tortuosity_after"] == r.wire_after.tortuosity and row["at_rest"] is True
+    assert row["wall_force"] == r.wall_force and "max_slope_deg" not in row
+
+
 @pytest.mark.parametrize("fn, kw, field", [
+    (gravity_deposit, dict(sample="sphere"), "sample must be one of 'slope', 'cylinder'"),
+    (gravity_deposit, dict(sample="box", wire_density=4e5), "wire_density: the box sample"),
+    (gravity_deposit, dict(mu_wall=-0.1), "mu_wall must be a number >= 0"),
+    (gravity_deposit, dict(steps=0), "steps must be >= 1"),
     (cylinder_triaxial, dict(pressure=-1.0), "pressure"),
     (box_triaxial, dict(scale=0.0), "scale"),
     (cylinder_triaxial, dict(strain_rate=1e4), "inertial number"),

@@ -7,7 +7,6 @@ import json
 import re
 import subprocess
 import sys
-from pathlib import Path
 
 import numpy as np
 import pytest
@@ -19,7 +18,7 @@ from workbench.paper import SCALES, cases_for  # noqa: E402
 CLAIMS = ["fig7", "fig8-9", "fig10a", "fig10b", "fig11a", "fig11b", "fig11c", "fig12a", "fig12b",
           "fig13a", "fig13b", "fig13c", "fig14-k0.2", "fig14-rigid", "fig14-order", "fig15",
           "fig16a", "fig16b"]
-FIGURES = ["fig07_tortuosity", "fig08_09_directions", "fig09_beads", "fig09_wire",
+FIGURES = ["fig07_tortuosity", "fig07_before", "fig07_after", "fig08_09_directions", "fig09_beads", "fig09_wire",
            "fig10_slope", "fig11_wire_stress", "fig11_forces", "fig11_wire", "fig12_strains",
            "fig13_cylinder", "fig13_beads", "fig13_wire", "fig13_torus", "fig14_stress_strain",
            "fig15_wire_equivalent", "fig16_H_vs_k"]
@@ -40,9 +39,10 @@ def test_cases_cover_the_figures():
                 assert f"box_rw{div}_seed{seed}" in names
         from workbench.paper import fig10_seeds
         assert len(fig10_seeds(s)) >= 2
-        for seed in fig10_seeds(s):                     # Fig. 10 on several seeds
+        for seed in fig10_seeds(s):                     # Fig. 7 and 10 on several seeds
             for tag in ("sand", "w400", "w800"):
                 assert f"slope_{tag}_seed{seed}" in names
+            assert f"deposit_w400_seed{seed}" in names
         assert len(s.fig14_seeds) >= 2                  # a spread for the +7 % claim
     assert SCALES["default"].k_list == (0.1, 0.2, 0.5, 1, 2, 5, 10, 20, 50, 100)
 
@@ -101,6 +101,28 @@ def test_a_negative_effect_beyond_the_spread_is_called_opposite():
     assert _against(-0.093, 0.051, 3).endswith("the opposite effect")   # 2 SE = 0.059
     assert _against(-0.036, 0.087, 5) == "within the seed spread"       # 2 SE = 0.078
     assert _against(-0.05, 0.051, 3) == "within the seed spread"
+
+
+def test_fig7_needs_every_seed_up_and_the_mean_beyond_the_spread():
+    """Fig. 7: ξ after the deposit in the mould above ξ before on every seed, and the mean
+    relative change > 0 beyond 2 standard errors; one seed gives no verdict."""
+    from workbench.paper import _fig7
+
+    def run(b, a):
+        return dict(tortuosity_before=b, tortuosity_after=a, settlement=1e-5)
+
+    ok, text = _fig7([run(1600, 2500), run(1550, 2400), run(1500, 2300)], (0, 1, 2))
+    assert ok is True
+    assert text.startswith("+55% ± 1% (mean ± std over 3 seeds)")
+    assert "seed 1: 1550 → 2400 m⁻¹ (+55%, settlement 10 µm)" in text
+    # a mean beyond 2 standard errors but one seed going down: not reproduced
+    assert _fig7([run(1000, 1500), run(1000, 1600), run(1000, 990), run(1000, 1550)],
+                 (0, 1, 2, 3))[0] is False
+    # within the spread: not reproduced
+    assert _fig7([run(1000, 1010), run(1000, 1300), run(1000, 1005)], (0, 1, 2))[0] is False
+    assert _fig7([run(1000, 1500)], (0,)) == (None, "+50% (one seed); seed 0: 1000 → 1500 m⁻¹ "
+                                                  "(+50%, settlement 10 µm)")
+    assert _fig7([None, dict()], (0, 1)) == (None, "runs missing")
 
 
 def test_fig10_pairs_the_heaps_by_seed():
@@ -238,7 +260,7 @@ def test_nscd_paper_tiny(tmp_path, monkeypatch):
         assert (out / "runs" / f"{c['name']}.h5").exists(), c["name"]
         assert (out / "runs" / f"{c['name']}.curves.h5").exists(), c["name"]
         assert f"| {c['name']} | done" in report
-    for run in ("slope_w400_seed0", "box_rw1_seed0", "cylinder_k1_seed0"):
+    for run in ("deposit_w400_seed0", "slope_w400_seed0", "box_rw1_seed0", "cylinder_k1_seed0"):
         assert (out / "series" / run / f"{run}.pvd").exists()
     table = json.loads((out / "sweep.json").read_text())
     assert len(table["cases"]) == len(cases_for(SCALES["tiny"]))

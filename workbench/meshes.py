@@ -47,8 +47,8 @@ import numpy as np
 
 __all__ = ["Part", "BEAD_SAND", "BEAD_WIRE", "CONTACT_SAND_SAND", "CONTACT_SAND_WIRE",
            "CONTACT_WIRE_WIRE", "CONTACT_WALL", "bead_kind", "bead_part", "wire_part",
-           "contact_part", "wall_part", "scene_bounds", "beads", "wire", "contacts", "walls",
-           "scene"]
+           "contact_part", "wall_part", "scene_bounds", "fallen", "beads", "wire", "contacts",
+           "walls", "scene"]
 
 #: Bead ``kind`` codes.
 BEAD_SAND, BEAD_WIRE = 0, 1
@@ -214,12 +214,44 @@ def contact_part(model, state, *, empty: bool = False) -> Part | None:
         })
 
 
-def scene_bounds(model, state) -> np.ndarray:
+def fallen(model, state) -> np.ndarray:
+    """(n_spheres,) bool, in ``model.sphere_ids`` order: the free spheres that have fallen
+    off the scene, i.e. lie wholly beyond every fixed sphere along gravity by more than
+    their own diameter (a floor of fixed beads has an edge; a plane has none).  Without
+    gravity or fixed spheres nothing has fallen.  (The slope deposit's grains that rolled
+    off the rubber floor's edge fall for good: 0.2 m below a heap of 10 mm, they would set
+    the framing of every picture.)"""
+    ids = model.sphere_ids
+    out = np.zeros(ids.size, bool)
+    g = np.asarray(model.options.gravity, float)
+    gn = float(np.linalg.norm(g))
+    if ids.size == 0 or gn == 0.0:
+        return out
+    g = g / gn
+    depth = state.position[ids] @ g                      # larger: further down
+    r = model.body_radius[ids]
+    fixed = model.body_dof[ids] != 0                     # engine.model.FREE = 0
+    if not fixed.any():
+        return out
+    low = float((depth[fixed] + r[fixed]).max())         # the lowest point of the supports
+    out = ~fixed & (depth - r > low + 2 * r)
+    return out if not out.all() else np.zeros(ids.size, bool)
+
+
+def scene_bounds(model, state, *, free_only: bool = False) -> np.ndarray:
     """(2, 3) [m]: lower and upper corner of the box holding the spheres (with their
-    radii), the cylinders and the reference points of the planes."""
+    radii; not those that have fallen off the scene, :func:`fallen`), the cylinders and
+    the reference points of the planes.  ``free_only``: leave the fixed spheres out too
+    (what the pictures frame: a slope's heap, not the whole floor of fixed beads it
+    spreads on), unless every sphere is fixed."""
     lo = np.full(3, np.inf)
     hi = np.full(3, -np.inf)
-    ids = model.sphere_ids
+    keep = ~fallen(model, state)
+    if free_only:
+        free = model.body_dof[model.sphere_ids] == 0
+        if (keep & free).any():
+            keep &= free
+    ids = model.sphere_ids[keep]
     if ids.size:
         p, r = state.position[ids], model.body_radius[ids][:, None]
         lo = np.minimum(lo, (p - r).min(axis=0))

@@ -72,6 +72,8 @@ WINDOW_SIZE = (800, 600)
 # colours (fixed; named so that pictures and legends agree)
 SAND_COLOR = "#d9b36c"
 WIRE_COLOR = "#1f4e9c"
+FIXED_COLOR = "#9a9a9a"   # fixed spheres (the slope's rubber floor)
+FIXED_KIND = 2            # their ``kind`` in the beads picture only (meshes: sand or wire)
 WALL_COLOR = "#9aa5b1"
 SLACK_COLOR = "#b0b0b0"
 BROKEN_COLOR = "#d62728"
@@ -202,6 +204,13 @@ def _select(part, mask):
                        point_data={k: v[idx] for k, v in part.point_data.items()})
 
 
+def _with_kind(part, kind):
+    """The vertex part with its ``kind`` replaced (the picture's own copy)."""
+    data = dict(part.point_data, kind=np.asarray(kind, dtype=part.point_data["kind"].dtype))
+    return meshes.Part(points=part.points, cell_type=part.cell_type, cells=part.cells,
+                       point_data=data)
+
+
 def _black_legend_text(legend, colors) -> None:
     """Legend labels in black, each symbol in its colour.  vtkLegendBoxActor paints an
     entry's text in the entry's colour (the light sand colour was hard to read on white);
@@ -237,12 +246,20 @@ def add_beads(pl, model, state, *, walls: bool = True, wall_opacity: float = 0.1
         part = _select(part, keep)
     if part.n_points:
         if color_by == "kind":
-            _spheres(pl, part, "beads", scalars="kind", cmap=[SAND_COLOR, WIRE_COLOR],
-                     clim=(-0.5, 1.5), n_colors=2, show_scalar_bar=False)
+            # fixed spheres (a floor of beads) apart from the sand: a third colour
+            fixed = (model.body_dof[part.point_data["body_id"]] != 0) & \
+                (part.point_data["kind"] != meshes.BEAD_WIRE)
+            colors = [SAND_COLOR, WIRE_COLOR] + ([FIXED_COLOR] if fixed.any() else [])
+            if fixed.any():
+                part = _with_kind(part, np.where(fixed, FIXED_KIND, part.point_data["kind"]))
+            _spheres(pl, part, "beads", scalars="kind", cmap=colors,
+                     clim=(-0.5, len(colors) - 0.5), n_colors=len(colors),
+                     show_scalar_bar=False)
             # a legend box, not an annotated bar: the bar's labels sat on its colours
             kinds = set(np.unique(part.point_data["kind"]).tolist())
             entries = [[name, col] for k, name, col in ((meshes.BEAD_SAND, "sand", SAND_COLOR),
-                                                       (meshes.BEAD_WIRE, "wire", WIRE_COLOR))
+                                                       (meshes.BEAD_WIRE, "wire", WIRE_COLOR),
+                                                       (FIXED_KIND, "fixed", FIXED_COLOR))
                        if k in kinds]
             legend = pl.add_legend(entries, bcolor="white", border=False, face="circle",
                                    size=(0.13, 0.035 * (len(entries) + 1)),
@@ -494,7 +511,8 @@ def plotter(model, state, preset: str = "beads", *, camera="iso", window_size=WI
         else:
             {"beads": add_beads, "wire": add_wire, "forces": add_forces}[preset](
                 pl, model, state, **options)
-            set_camera(pl, camera, bounds=meshes.scene_bounds(model, state), zoom=zoom)
+            set_camera(pl, camera, bounds=meshes.scene_bounds(model, state, free_only=True),
+                       zoom=zoom)
         text = title if title is not None else f"t = {float(state.time):.4g} s"
         if text:
             # a corner annotation ("lower_left") clips the first glyph at the window edge

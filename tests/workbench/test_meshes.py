@@ -97,6 +97,26 @@ def test_box_planes_are_clipped_to_an_open_box():
         np.testing.assert_allclose(d, 0.0, atol=1e-15)
 
 
+def test_pictures_are_framed_without_the_grains_that_fell_off():
+    """A grain more than its diameter below a floor of fixed beads (one that rolled off the
+    slope's rubber floor and fell) is left out of the bounds the camera frames; grains on
+    the floor, or any grain without gravity, are not."""
+    r = 0.5e-3
+    for g, out in (((0, 0, -9.81), True), ((0, 0, 0), False)):
+        s = Scene(gravity=g)
+        s.fix(s.add_spheres([[x, 0.0, -r] for x in (-2e-3, 0.0, 2e-3)], r, density=1000.0,
+                            group="floor"))
+        s.add_spheres([[0, 0, r], [1e-3, 0, 3 * r], [0, 0, -0.2]], r, density=2650.0)
+        s.interact("sand", "floor", laws.Coulomb(mu=0.5))
+        s.interact("sand", "sand", laws.Coulomb(mu=0.5))
+        s.interact("floor", "floor", None)
+        model, state = s.compile(dt=1e-4)
+        assert meshes.fallen(model, state).tolist() == [False] * 5 + [out]
+        lo, hi = meshes.scene_bounds(model, state)
+        assert lo[2] == pytest.approx(-2 * r if out else -0.2 - r)
+        assert hi[2] == pytest.approx(4 * r)
+
+
 def test_polydata_wrappers_carry_the_same_arrays(scene):
     pytest.importorskip("pyvista")
     model, state, _ = scene

@@ -215,3 +215,38 @@ def test_kind_legend_has_black_labels_and_coloured_symbols(scene):
             np.testing.assert_array_equal(np.unique(rgb, axis=0), [pv.Color(col).int_rgb])
     finally:
         pl.close()
+
+
+def test_fixed_beads_are_grey_and_the_camera_frames_the_free_spheres():
+    """A floor of fixed beads (the slope's rubber plane) is drawn in its own colour with a
+    "fixed" legend entry, and the camera frames the free spheres: a heap on a wide floor
+    fills the picture, not the floor."""
+    from engine import Scene, laws
+    from workbench import meshes
+
+    r = 0.3e-3
+    s = Scene(gravity=(0, 0, -9.81))
+    xs = np.arange(-20, 21) * 2 * r
+    floor = s.add_spheres([[x, y, -r] for x in xs for y in xs], r, density=1000.0,
+                          group="rubber")
+    s.fix(floor)
+    s.add_spheres([[0, 0, r], [2 * r, 0, r], [r, 0, 2.8 * r]], r, density=2650.0)
+    s.interact("sand", "sand", laws.Coulomb(mu=0.5))
+    s.interact("sand", "rubber", laws.Coulomb(mu=0.5))
+    s.interact("rubber", "rubber", None)
+    model, state = s.compile(dt=1e-4)
+    pl = render.plotter(model, state, "beads", window_size=SIZE)
+    try:
+        legend = pl.legend
+        assert legend.GetNumberOfEntries() == 2          # sand, fixed (no wire here)
+        rgb = pv.wrap(legend.GetEntrySymbol(1)).point_data["rgb"]
+        np.testing.assert_array_equal(np.unique(rgb, axis=0),
+                                      [pv.Color(render.FIXED_COLOR).int_rgb])
+        kinds = pl.actors["beads"].mapper.dataset.point_data["kind"]
+        assert sorted(np.unique(kinds)) == [meshes.BEAD_SAND, render.FIXED_KIND]
+        assert (kinds == render.FIXED_KIND).sum() == len(floor)
+        # the focal point is the centre of the three free grains, not of the floor
+        focal = np.asarray(pl.camera.focal_point)
+        np.testing.assert_allclose(focal, [r, 0.0, 1.9 * r], atol=1e-9)
+    finally:
+        pl.close()

@@ -9,7 +9,7 @@
     nscd export RUN.h5 OUTDIR                every frame of a history as VTU + a PVD
     nscd info RUN.h5                         what a checkpoint or history holds
     nscd paper [--scale tiny|default|paper] [--out DIR] [--scheduler ADDRESS|serial]
-               [--only CLAIMS] [--threads T]
+               [--only CLAIMS] [--threads T] [--reuse-only]
                                              reproduce the paper's §3: DIR/report.md, figures,
                                              runs, series (workbench/paper.py)
     nscd sweep TEST --grid NAME=V1,V2 ... [--out TABLE.json] [--scheduler ADDRESS|serial]
@@ -431,7 +431,7 @@ def cmd_paper(a) -> int:
     from .paper import build_report
 
     rep = build_report(a.out, a.scale, scheduler=a.scheduler, render=not a.no_render,
-                       only=a.only, threads=a.threads)
+                       only=a.only, threads=a.threads, reuse_only=a.reuse_only)
     counts = {}
     for c in rep.claims:
         counts[c.status] = counts.get(c.status, 0) + 1
@@ -537,6 +537,9 @@ def parser() -> argparse.ArgumentParser:
                     help="NLGS threads of each run (default 1; 2 pays on a paper-scale slope "
                          "with --scheduler serial)")
     pp.add_argument("--no-render", action="store_true", help="skip the PyVista snapshots")
+    pp.add_argument("--reuse-only", action="store_true",
+                    help="start no run: score the runs already done in OUT and list the "
+                         "others as not run (a paper-scale report between sessions)")
     pp.set_defaults(fn=cmd_paper)
     sw = sub.add_parser("sweep", help="run a test over a grid of parameters on Dask")
     sw.add_argument("test", help="cylinder_triaxial, box_triaxial, slope_deposit or "

@@ -1129,7 +1129,7 @@ def _git_commit():
 
 
 def build_report(out="out/paper", scale="default", *, scheduler=None, progress=True,
-                 render=True, only=None, threads=None) -> Report:
+                 render=True, only=None, threads=None, reuse_only=False) -> Report:
     """Run (or reuse) every case of ``scale`` and write ``out/report.md`` with the figures,
     the runs, the series and the sweep table.
 
@@ -1137,6 +1137,10 @@ def build_report(out="out/paper", scale="default", *, scheduler=None, progress=T
     ``only``: some claims (ids or figure prefixes, :func:`select_claims`), e.g. "fig14":
     the report then runs, scores and draws those claims alone (the way to take one figure
     to the paper's scale on a small machine).
+    ``reuse_only``: start no run; score and draw the runs already done in ``out`` (its
+    sweep table), and list the others as not run: how a paper-scale report that takes
+    several sessions is read between them.  The claims missing a run say so and are not
+    comparable; a claim on several seeds uses the seeds whose runs are done.
     ``threads``: NLGS threads of each run (None: the tests' default, 1).  It is not part of
     a run's identity: runs made with another count are reused.  Two threads pay on the
     paper-scale slope (1.79× in docs/experiments.md) when one run at a time goes
@@ -1164,6 +1168,14 @@ def build_report(out="out/paper", scale="default", *, scheduler=None, progress=T
     if threads is not None:
         fixed["threads"] = threads
     cases = cases_for(scale, only=chosen)
+    not_run = []
+    if reuse_only:
+        from engine.sweep import case_key, load_table
+
+        done = {r["key"] for r in load_table(out / "sweep.json").rows if r["status"] == "done"}
+        not_run = [c["name"] for c in cases if case_key(paper_case, c) not in done]
+        cases = [c for c in cases if c["name"] not in not_run]
+        scheduler = "serial"          # nothing to run: no cluster
     table = sweep(paper_case, cases, scheduler, out=out / "sweep.json", fixed=fixed,
                   progress=progress)
     t_sim = table.wall_time
@@ -1174,7 +1186,7 @@ def build_report(out="out/paper", scale="default", *, scheduler=None, progress=T
         if r["status"] == "done" and p.exists():
             curves[name] = read_curves(p)
     claims = evaluate(curves, rows, scale)
-    runs = None if chosen is None else set(rows)
+    runs = None if chosen is None and not not_run else set(rows)   # the runs to draw
     if chosen is not None:
         claims = [c for c in claims if c.id in chosen]
     figs = make_figures(curves, scale, fig_dir, chosen)
@@ -1191,7 +1203,8 @@ def build_report(out="out/paper", scale="default", *, scheduler=None, progress=T
     if end_commit != commit:
         commit += f"; {end_commit} when the report was written (the runs used the first)"
     path.write_text(_markdown(scale, claims, figs, pvds, table, rows, curves, out, wall,
-                              t_sim, problems, scheduler, chosen, threads, commit))
+                              t_sim, problems, scheduler, chosen, threads, commit, not_run,
+                              reuse_only))
     (out / "claims.json").write_text(json.dumps([c.__dict__ for c in claims], indent=1,
                                                 ensure_ascii=False))
     return Report(path, claims, figs, table, wall, problems)
@@ -1225,7 +1238,8 @@ def _rel(p, out):
 
 
 def _markdown(scale, claims, figs, pvds, table, rows, curves, out, wall, t_sim, problems,
-              scheduler, chosen=None, threads=None, commit=None) -> str:
+              scheduler, chosen=None, threads=None, commit=None, not_run=(),
+              reuse_only=False) -> str:
     L = []
     now = _dt.datetime.now().strftime("%Y-%m-%d %H:%M")
     counts = {s: sum(c.status == s for c in claims)
@@ -1235,7 +1249,8 @@ def _markdown(scale, claims, figs, pvds, table, rows, curves, out, wall, t_sim, 
           "",
           f"Built {now} by `nscd paper --scale {scale.name}"
           f"{' --only ' + ','.join(chosen) if chosen is not None else ''}"
-          f"{f' --threads {threads}' if threads is not None else ''}` (nscd-workbench commit "
+          f"{f' --threads {threads}' if threads is not None else ''}"
+          f"{' --reuse-only' if reuse_only else ''}` (nscd-workbench commit "
           f"{commit or _git_commit()}), Python {platform.python_version()} on "
           f"{os.cpu_count()} cores; "
           f"cluster: {scheduler or 'LocalCluster, 2 workers'}; NLGS threads per run: "
@@ -1248,6 +1263,11 @@ def _markdown(scale, claims, figs, pvds, table, rows, curves, out, wall, t_sim, 
     if chosen is not None:
         L += [f"> **Some claims only** (`--only`): {', '.join(chosen)}. The other claims, "
               "their runs and their figures are not part of this report.", ""]
+    if not_run:
+        L += [f"> **Runs not done yet** (`--reuse-only`: this build started none): "
+              f"{', '.join(not_run)}. The claims reading them use the runs that are done "
+              "(the seeds whose runs are all done) or say \"run missing\"; run the same "
+              "command without `--reuse-only` to do them.", ""]
     if scale.smoke:
         L += ["> **Smoke scale.** The samples are far too small and the strains too short for "
               "any claim to be judged: every claim below is marked *not comparable*. The "

@@ -310,3 +310,27 @@ def test_sweep_grid_parsing():
     assert a.test == "cylinder_triaxial" and a.scheduler == "serial" and a.retries == 1
     a = parser().parse_args(["paper", "--scale", "tiny", "--out", "x"])
     assert (a.scale, a.out, a.scheduler) == ("tiny", "x", None)
+
+
+def test_reuse_only_scores_the_runs_done_and_starts_none(tmp_path):
+    """``reuse_only``: the report of the runs already done in OUT (here one of the two
+    Fig. 7 seeds), the others listed as not run, nothing started."""
+    import workbench.paper as wp
+    from engine.sweep import sweep
+
+    out = tmp_path / "p"
+    s = SCALES["tiny"]
+    cases = cases_for(s, only="fig7")
+    assert [c["name"] for c in cases] == ["deposit_w400_seed0", "deposit_w400_seed1"]
+    sweep(wp.paper_case, cases[:1], "serial", out=out / "sweep.json",
+          fixed={"runs_dir": str((out / "runs").resolve())}, progress=False)
+    rep = wp.build_report(out, "tiny", only="fig7", reuse_only=True, render=False,
+                          progress=False)
+    assert not (out / "runs" / "deposit_w400_seed1.h5").exists()       # not started
+    text = rep.path.read_text()
+    assert "--only fig7 --reuse-only`" in text
+    assert "**Runs not done yet** (`--reuse-only`: this build started none): " \
+           "deposit_w400_seed1." in text
+    (c,) = rep.claims
+    assert c.status == "not comparable" and "(one seed); seed 0: " in c.ours
+    assert [r["params"]["name"] for r in rep.table.rows] == ["deposit_w400_seed0"]

@@ -3,7 +3,7 @@ import numpy as np
 import pytest
 
 from engine import Scene, laws, run, step
-from engine.analysis import best_fit_strain, equivalent_stress, weber_stress
+from engine.analysis import best_fit_strain, weber_stress
 from engine.contact import tangent_frame
 from engine.prep import Box, Cylinder, TorusCell
 from tests.helpers import G, box_pile

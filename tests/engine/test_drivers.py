@@ -2,7 +2,7 @@
 import numpy as np
 import pytest
 
-from engine import Scene, laws, run, step
+from engine import Scene, laws, run
 from tests.helpers import G
 
 

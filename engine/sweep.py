@@ -173,7 +173,8 @@ def scalars_of(result) -> dict:
             out.update(max_slope_deg=result.max_slope_deg, floor_force=result.floor_force,
                        lost_particles=result.params.get("lost_particles"))
         else:                                                 # deposit under gravity
-            out.update(settlement=result.settlement, wall_force=result.wall_force)
+            out.update(settlement=result.settlement, wall_force=result.wall_force,
+                       slack_share=result.slack_share)
         if result.wire_before is not None:
             out.update(tortuosity_before=result.wire_before.tortuosity,
                        tortuosity_after=result.wire_after.tortuosity)

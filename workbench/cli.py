@@ -126,7 +126,7 @@ class BoxParams(TriaxialParams):
 
 class SlopeParams(SolverParams):
     tol: float = Field(1e-4, gt=0, lt=1)
-    wire_density: Optional[float] = Field(None, ge=0, description="[m/m³]")
+    wire_density: Optional[float] = Field(None, gt=0, description="[m/m³]")
     steps: int = Field(4000, ge=1)
     ke_fraction: float = Field(1e-4, gt=0, lt=1)
     rubber_radius: float = Field(0.3e-3, gt=0)
@@ -141,8 +141,8 @@ class DepositParams(SolverParams):
     tol: float = Field(1e-4, gt=0, lt=1)
     sample: Literal["slope", "cylinder", "box"] = Field(
         "slope", description="the paper's sample relaxed in its mould")
-    wire_density: Optional[float] = Field(None, ge=0,
-                                          description="[m/m³] (slope and cylinder samples)")
+    wire_density: Optional[float] = Field(None, gt=0,
+                                          description="[m/m³] (None: the sample's own)")
     steps: int = Field(6000, ge=1)
     ke_fraction: float = Field(1e-4, gt=0, lt=1)
     mu_wall: float = Field(0.5, ge=0, le=10, description="friction of the mould")
@@ -307,14 +307,14 @@ def sample_cylinder(model, state):
                     float((x[:, 2] + r).max()) - z0, center=(0.0, 0.0, z0))
 
 
-def render_frame(history, out, *, frame=-1, preset="beads", camera="iso") -> Path:
+def render_frame(history, out, *, frame=-1, preset="beads", camera="iso", **options) -> Path:
     from engine import io
     from engine.model import CYLINDER
     from .render import snapshot
 
     model, state = io.load(history, frame=frame)
-    opts = {}
-    if preset == "torus" and not (model.body_kind == CYLINDER).any():
+    opts = dict(options)
+    if preset == "torus" and not (model.body_kind == CYLINDER).any() and "cylinder" not in opts:
         opts["cylinder"] = sample_cylinder(model, state)
     return snapshot(model, state, out, preset=preset, camera=camera, **opts)
 

@@ -235,7 +235,8 @@ def fallen(model, state) -> np.ndarray:
         return out
     low = float((depth[fixed] + r[fixed]).max())         # the lowest point of the supports
     out = ~fixed & (depth - r > low + 2 * r)
-    return out if not out.all() else np.zeros(ids.size, bool)
+    # every free sphere beyond the supports: they are the scene (a fall), not strays
+    return out if not out[~fixed].all() else np.zeros(ids.size, bool)
 
 
 def scene_bounds(model, state, *, free_only: bool = False) -> np.ndarray:

@@ -41,11 +41,14 @@ class DepositResult(RestResult):
     wall_force : float [N]                     vertical force of the grains on the mould
                                                (floor and sides) at the end.
     weight : float [N]                         weight of the sample (sand and wire).
+    slack_share : float                        share of the wire links carrying no tension
+                                               at the end (nan without a wire).
     at_rest : bool;  history : str;  params, convergence : dict
     """
 
     settlement: float
     wall_force: float
+    slack_share: float
 
     def __str__(self):
         return rest_summary(self, f"settlement {self.settlement * 1e6:.1f} µm; mould force / "
@@ -58,7 +61,7 @@ def _mould(sc, container, height):
     if isinstance(container, Cylinder):
         sc.add_plane(point=container.center, normal=(0, 0, 1), group="wall")
         sc.add_cylinder(center=container.center, axis=(0, 0, 1), radius=container.radius,
-                        height=height, group="wall")
+                        height=height, bottom=False, group="wall")    # the plane is the floor
     elif isinstance(container, Box):
         lo, hi = container.lo, container.hi
         sc.add_plane(point=lo, normal=(0, 0, 1), group="wall")
@@ -89,9 +92,9 @@ def gravity_deposit(scale: float = 0.05, *, sample: str = "slope", wire: bool = 
 
     ``sample`` is one of :data:`SAMPLES`, built by :func:`engine.prep.paper_sample` at
     ``scale`` (1: the paper's size; the slope sample, Ø12 mm × 14 mm with 26 000 grains
-    and 400 km·m⁻³ of wire, by default; ``wire_density`` for another content, slope and
-    cylinder samples only).  It stays in its mould (the container's floor and side, with
-    friction ``mu_wall``; open at the top) and runs under gravity, each step the
+    and 400 km·m⁻³ of wire, by default; ``wire_density`` [m/m³] for another content).  It
+    stays in its mould (the container's floor and side, with friction ``mu_wall`` for sand
+    and wire; open at the top) and runs under gravity, each step the
     θ-method (Eq. 4) with NLGS on the contacts and the wire links (Eq. 5-15), until the
     sand's kinetic energy is below ``ke_fraction`` of its peak, or ``steps`` steps.  The
     wire beads are left out of the criterion: a bead of a taut wire keeps a velocity of
@@ -109,9 +112,6 @@ def gravity_deposit(scale: float = 0.05, *, sample: str = "slope", wire: bool = 
     check_rest_run(steps, ke_fraction, record_every)
     kw = dict(wire=wire, seed=seed)
     if wire_density is not None:
-        if sample == "box":
-            raise ValueError("wire_density: the box sample has the paper's content only "
-                             "(give None), the slope and cylinder samples take any >= 0 [m/m³]")
         kw["wire_density"] = wire_density
     law = wire_law_or_default(wire_law) if wire else None
     smp = paper_sample(sample, scale, **kw)
@@ -125,8 +125,9 @@ def gravity_deposit(scale: float = 0.05, *, sample: str = "slope", wire: bool = 
     sc.interact("sand", "sand", laws.Coulomb(mu=mu))
     sc.interact("sand", "wall", laws.Coulomb(mu=mu_wall))
     if wire:
-        for g in ("sand", "wire", "wall"):
+        for g in ("sand", "wire"):
             sc.interact("wire", g, laws.Coulomb(mu=mu_wire))
+        sc.interact("wire", "wall", laws.Coulomb(mu=mu_wall))
     model, state = sc.compile(dt=dt, theta=theta, tol=tol, max_iter=max_iter, relax=relax,
                               anderson=anderson, threads=threads, hot_sweeps=hot_sweeps)
     chains0 = wire_chains(model, state) if wire else []
@@ -151,6 +152,7 @@ def gravity_deposit(scale: float = 0.05, *, sample: str = "slope", wire: bool = 
         kinetic_energy=rec.array("kinetic_energy"),
         **wire_before_after(chains0, chains1, smp.container.volume),
         settlement=float(np.mean(z0 - state.position[sand, 2])), wall_force=-fz,
+        slack_share=float(np.mean(state.links.tension <= 0.0)) if model.n_links else math.nan,
         weight=weight, at_rest=at_rest, history=hist.path,
         params=dict(scale=scale, sample=sample, wire=wire, wire_density=smp.wire_density,
                     wire_law=repr(law), steps=steps, ke_fraction=ke_fraction, dt=dt,

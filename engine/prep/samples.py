@@ -152,6 +152,14 @@ def _build(name, container, wire_region, radii, *, wire, wire_density, bead_radi
 def _paper(name, container, wire_region, scale, *, wire, wire_density, bead_radius, seed):
     """The paper's grains for ``name`` at ``scale`` in ``container``, and the wire."""
     p = PAPER[name]
+    if isinstance(seed, bool) or not isinstance(seed, (int, np.integer)) or seed < 0:
+        raise ValueError(f"seed must be an integer >= 0, got {seed!r}")
+    for field, v in (("wire_density", wire_density), ("bead_radius", bead_radius)):
+        if v is not None and (isinstance(v, bool) or not isinstance(v, (int, float, np.number))
+                              or not (math.isfinite(v) and v > 0)):
+            unit = "[m/m³]; None: the paper's" if field == "wire_density" else "[m]"
+            raise ValueError(f"{field} must be a number > 0 {unit} (wire=False for sand "
+                             f"only), got {v!r}")
     n = max(1, int(round(p["n_sand"] * scale)))
     radii = granulometry.uniform(p["d_min"], p["d_max"], n=n, seed=seed + 2)
     return _build(name, container, wire_region, radii, wire=wire,

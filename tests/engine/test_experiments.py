@@ -145,7 +145,10 @@ def test_gravity_deposit_in_the_mould(tmp_path):
 
 @pytest.mark.parametrize("fn, kw, field", [
     (gravity_deposit, dict(sample="sphere"), "sample must be one of 'slope', 'cylinder'"),
-    (gravity_deposit, dict(sample="box", wire_density=4e5), "wire_density: the box sample"),
+    (gravity_deposit, dict(sample="box", wire_density=0.0), "wire_density must be a number > 0"),
+    (gravity_deposit, dict(seed=-1), "seed must be an integer >= 0"),
+    (slope_deposit, dict(seed=1.5), "seed must be an integer >= 0"),
+    (slope_deposit, dict(wire_density="4e5"), "wire_density must be a number > 0"),
     (gravity_deposit, dict(mu_wall=-0.1), "mu_wall must be a number >= 0"),
     (gravity_deposit, dict(steps=0), "steps must be >= 1"),
     (cylinder_triaxial, dict(pressure=-1.0), "pressure"),

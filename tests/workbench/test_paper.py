@@ -108,8 +108,8 @@ def test_fig7_needs_every_seed_up_and_the_mean_beyond_the_spread():
     relative change > 0 beyond 2 standard errors; one seed gives no verdict."""
     from workbench.paper import _fig7
 
-    def run(b, a):
-        return dict(tortuosity_before=b, tortuosity_after=a, settlement=1e-5)
+    def run(b, a, at_rest=True):
+        return dict(tortuosity_before=b, tortuosity_after=a, settlement=1e-5, at_rest=at_rest)
 
     ok, text = _fig7([run(1600, 2500), run(1550, 2400), run(1500, 2300)], (0, 1, 2))
     assert ok is True
@@ -123,6 +123,15 @@ def test_fig7_needs_every_seed_up_and_the_mean_beyond_the_spread():
     assert _fig7([run(1000, 1500)], (0,)) == (None, "+50% (one seed); seed 0: 1000 → 1500 m⁻¹ "
                                                   "(+50%, settlement 10 µm)")
     assert _fig7([None, dict()], (0, 1)) == (None, "runs missing")
+    # a deposit stopped by its step limit before rest: no verdict, and the text says why
+    ok, text = _fig7([run(1600, 2500), run(1550, 2400, at_rest=False), run(1500, 2300)],
+                     (0, 1, 2))
+    assert ok is None and text.endswith("; not comparable: seed(s) 1 not at rest")
+    assert "settlement 10 µm, NOT at rest)" in text
+    # the wire's length and slack links, when the run has them
+    r = dict(run(1000, 1500), wire_length_before=0.1, wire_length_after=0.096,
+             slack_share=0.17)
+    assert "wire length -4.0%, 17% of the links slack)" in _fig7([r], (0,))[1]
 
 
 def test_fig10_pairs_the_heaps_by_seed():
@@ -324,9 +333,11 @@ def test_reuse_only_scores_the_runs_done_and_starts_none(tmp_path):
     assert [c["name"] for c in cases] == ["deposit_w400_seed0", "deposit_w400_seed1"]
     sweep(wp.paper_case, cases[:1], "serial", out=out / "sweep.json",
           fixed={"runs_dir": str((out / "runs").resolve())}, progress=False)
+    table = (out / "sweep.json").read_bytes()
     rep = wp.build_report(out, "tiny", only="fig7", reuse_only=True, render=False,
                           progress=False)
     assert not (out / "runs" / "deposit_w400_seed1.h5").exists()       # not started
+    assert (out / "sweep.json").read_bytes() == table                  # nor written to
     text = rep.path.read_text()
     assert "--only fig7 --reuse-only`" in text
     assert "**Runs not done yet** (`--reuse-only`: this build started none): " \
@@ -334,3 +345,7 @@ def test_reuse_only_scores_the_runs_done_and_starts_none(tmp_path):
     (c,) = rep.claims
     assert c.status == "not comparable" and "(one seed); seed 0: " in c.ours
     assert [r["params"]["name"] for r in rep.table.rows] == ["deposit_w400_seed0"]
+    with pytest.warns(RuntimeWarning, match="no run of these claims is done"):
+        wp.build_report(tmp_path / "empty", "tiny", only="fig7", reuse_only=True,
+                        render=False, progress=False)
+    assert not (tmp_path / "empty" / "sweep.json").exists()

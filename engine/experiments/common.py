@@ -293,6 +293,20 @@ class RestResult:
     convergence: dict = field(default_factory=dict)
 
 
+def deposit_laws(sc, support: str, *, mu, mu_support, mu_wire, wire) -> None:
+    """The Coulomb laws of a deposit: sand–sand ``mu``, sand and wire on the ``support``
+    group (the mould, the rubber floor) ``mu_support``, wire–sand and wire–wire
+    ``mu_wire``."""
+    from .. import laws
+
+    sc.interact("sand", "sand", laws.Coulomb(mu=mu))
+    sc.interact("sand", support, laws.Coulomb(mu=mu_support))
+    if wire:
+        for g in ("sand", "wire"):
+            sc.interact("wire", g, laws.Coulomb(mu=mu_wire))
+        sc.interact("wire", support, laws.Coulomb(mu=mu_support))
+
+
 def wire_before_after(chains0, chains1, volume) -> dict:
     """The wire fields of a deposit's result: statistics (tortuosity ξ, Fig. 7; orientation;
     length density over ``volume`` [m³]) and direction histograms (Fig. 8-9) of the chains

@@ -8,15 +8,14 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .. import laws
 from ..analysis import wall_forces
 from ..analysis.wire import wire_chains
 from ..prep import Box, Cylinder, paper_sample
 from ..prep.relax import kinetic_energy
 from ..scene import Scene
-from .common import (RestResult, check_rest_run, check_scale, finish, rest_recording,
-                     rest_summary, run_to_rest, solver_choice, wire_before_after,
-                     wire_law_or_default)
+from .common import (RestResult, check_rest_run, check_scale, deposit_laws, finish,
+                     rest_recording, rest_summary, run_to_rest, solver_choice,
+                     wire_before_after, wire_law_or_default)
 
 __all__ = ["gravity_deposit", "DepositResult", "SAMPLES"]
 
@@ -122,12 +121,7 @@ def gravity_deposit(scale: float = 0.05, *, sample: str = "slope", wire: bool = 
     # them (and frames the pictures on the sample)
     lo, hi = smp.container.bounds()
     _mould(sc, smp.container, 1.1 * max(hi[2] - lo[2], smp.height))
-    sc.interact("sand", "sand", laws.Coulomb(mu=mu))
-    sc.interact("sand", "wall", laws.Coulomb(mu=mu_wall))
-    if wire:
-        for g in ("sand", "wire"):
-            sc.interact("wire", g, laws.Coulomb(mu=mu_wire))
-        sc.interact("wire", "wall", laws.Coulomb(mu=mu_wall))
+    deposit_laws(sc, "wall", mu=mu, mu_support=mu_wall, mu_wire=mu_wire, wire=wire)
     model, state = sc.compile(dt=dt, theta=theta, tol=tol, max_iter=max_iter, relax=relax,
                               anderson=anderson, threads=threads, hot_sweeps=hot_sweeps)
     chains0 = wire_chains(model, state) if wire else []

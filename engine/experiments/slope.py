@@ -8,14 +8,13 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .. import laws
 from ..analysis import slope_profile
 from ..analysis.wire import wire_chains
 from ..prep import slope_sample
 from ..prep.relax import kinetic_energy
 from ..scene import Scene
-from .common import (RestResult, check_positive, check_rest_run, check_scale, finish,
-                     rest_recording, rest_summary, run_to_rest, solver_choice,
+from .common import (RestResult, check_positive, check_rest_run, check_scale, deposit_laws,
+                     finish, rest_recording, rest_summary, run_to_rest, solver_choice,
                      wire_before_after, wire_law_or_default)
 
 __all__ = ["slope_deposit", "SlopeResult", "hex_floor"]
@@ -112,13 +111,8 @@ def slope_deposit(scale: float = 0.02, *, wire: bool = True, wire_density: float
     rubber = sc.add_spheres(hex_floor(rubber_radius, floor_extent * R), rubber_radius,
                             density=1000.0, group="rubber")
     sc.fix(rubber)
-    sc.interact("sand", "sand", laws.Coulomb(mu=mu))
-    sc.interact("sand", "rubber", laws.Coulomb(mu=mu_floor))
     sc.interact("rubber", "rubber", None)
-    if wire:
-        for g in ("sand", "wire"):
-            sc.interact("wire", g, laws.Coulomb(mu=mu_wire))
-        sc.interact("wire", "rubber", laws.Coulomb(mu=mu_floor))
+    deposit_laws(sc, "rubber", mu=mu, mu_support=mu_floor, mu_wire=mu_wire, wire=wire)
     model, state = sc.compile(dt=dt, theta=theta, tol=tol, max_iter=max_iter, relax=relax,
                               anderson=anderson, threads=threads, hot_sweeps=hot_sweeps)
     chains0 = wire_chains(model, state) if wire else []

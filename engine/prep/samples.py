@@ -154,11 +154,11 @@ def _paper(name, container, wire_region, scale, *, wire, wire_density, bead_radi
     p = PAPER[name]
     if isinstance(seed, bool) or not isinstance(seed, (int, np.integer)) or seed < 0:
         raise ValueError(f"seed must be an integer >= 0, got {seed!r}")
-    for field, v in (("wire_density", wire_density), ("bead_radius", bead_radius)):
+    for key, v in (("wire_density", wire_density), ("bead_radius", bead_radius)):
         if v is not None and (isinstance(v, bool) or not isinstance(v, (int, float, np.number))
                               or not (math.isfinite(v) and v > 0)):
-            unit = "[m/m³]; None: the paper's" if field == "wire_density" else "[m]"
-            raise ValueError(f"{field} must be a number > 0 {unit} (wire=False for sand "
+            unit = "[m/m³]; None: the paper's" if key == "wire_density" else "[m]"
+            raise ValueError(f"{key} must be a number > 0 {unit} (wire=False for sand "
                              f"only), got {v!r}")
     n = max(1, int(round(p["n_sand"] * scale)))
     radii = granulometry.uniform(p["d_min"], p["d_max"], n=n, seed=seed + 2)

@@ -320,12 +320,15 @@ def render_frame(history, out, *, frame=-1, preset="beads", camera="iso", **opti
 
 
 def figures_of(result, out: Path) -> list[Path]:
-    """Standard figures of a TestResult (stress–strain, convergence)."""
+    """Standard figures of a test's result: stress–strain (the triaxial tests) and the
+    solver's convergence (every test)."""
     from engine import io
     from . import figures
 
-    paths = [figures.stress_strain_figure([result], out / "stress_strain.png",
-                                          title=result.name)]
+    paths = []
+    if hasattr(result, "axial_strain"):
+        paths.append(figures.stress_strain_figure([result], out / "stress_strain.png",
+                                                  title=result.name))
     h = io.read_history(result.history, frames=False)
     paths.append(figures.convergence_figure(h.iterations, h.residual, out / "convergence.png",
                                             tol=result.params.get("tol"),
@@ -406,8 +409,7 @@ def cmd_run(a) -> int:
     out = Path(a.out or Path("out") / Path(a.config).stem)
     res = run_config(cfg, params, out)
     print(res)
-    if cfg.test not in ("slope_deposit", "gravity_deposit"):
-        figures_of(res, out)
+    print("wrote:\n  " + "\n  ".join(str(p) for p in [res.history, *figures_of(res, out)]))
     return 0
 
 

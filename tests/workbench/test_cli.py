@@ -70,6 +70,18 @@ def test_good_config_runs(tmp_path):
     assert (tmp_path / "o" / "run.h5").exists() and (tmp_path / "o" / "stress_strain.png").exists()
 
 
+def test_deposit_config_runs_and_writes_its_convergence(tmp_path, capsys):
+    """The Fig. 7 deposit from a run file (the box sample, ~100 grains): its history and
+    the solver's convergence figure (no stress-strain curve: it has none)."""
+    p = tmp_path / "d.toml"
+    p.write_text('test = "gravity_deposit"\nscale = 0.02\n[parameters]\nsample = "box"\n')
+    assert cli.main(["run", str(p), "--out", str(tmp_path / "o")]) == 0
+    out = capsys.readouterr().out
+    assert "gravity_deposit: at rest after" in out and "tortuosity" in out
+    assert (tmp_path / "o" / "convergence.png").exists()
+    assert not (tmp_path / "o" / "stress_strain.png").exists()
+
+
 def test_a_failed_run_is_one_line_with_exit_code_1(tmp_path, capsys):
     """A run that stops on non-convergence (2 sweeps per step cannot reach tol) exits 1 with
     the engine's message and where its history is, not a traceback."""

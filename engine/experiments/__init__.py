@@ -1,7 +1,8 @@
-"""The paper's deposit under gravity (§2.4) and its three mechanical tests (§3.1-3.3), each a function with the paper's
-parameters as defaults and a ``scale`` argument (1 = the paper's size; the default a small
-size), recording an HDF5 history (:class:`engine.io.History`) and returning a
-:class:`TestResult` with the curves.
+"""The paper's deposit under gravity (§2.4) and its three mechanical tests (§3.1-3.3), each
+a function with the paper's parameters as defaults and a ``scale`` argument (1 = the
+paper's size; the default a small size), recording an HDF5 history
+(:class:`engine.io.History`) and returning its curves (:class:`TestResult`,
+:class:`SlopeResult`, :class:`DepositResult`).
 
 * :func:`gravity_deposit` — §2.4, Fig. 7: a geometric sample relaxed in its mould;
 * :func:`slope_deposit` — §3.1, Fig. 8-10;
@@ -13,5 +14,6 @@ from .deposit import DepositResult, gravity_deposit
 from .slope import SlopeResult, slope_deposit
 from .triaxial import box_triaxial, cylinder_triaxial
 
-__all__ = ["gravity_deposit", "DepositResult", "slope_deposit", "box_triaxial", "cylinder_triaxial", "TestResult", "SlopeResult",
-           "ConvergenceError", "ConfinementError", "inertial_rate", "inertial_number"]
+__all__ = ["gravity_deposit", "DepositResult", "slope_deposit", "box_triaxial",
+           "cylinder_triaxial", "TestResult", "SlopeResult", "ConvergenceError",
+           "ConfinementError", "inertial_rate", "inertial_number"]

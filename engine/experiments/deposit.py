@@ -50,8 +50,8 @@ class DepositResult(RestResult):
     slack_share: float
 
     def __str__(self):
-        return rest_summary(self, f"settlement {self.settlement * 1e6:.1f} µm; mould force / "
-                                  f"weight = {self.wall_force / self.weight:.4f}")
+        return rest_summary(self, f"settlement {self.settlement * 1e6:.1f} µm; mould force "
+                                  f"/ weight = {self.wall_force / self.weight:.4f}")
 
 
 def _mould(sc, container, height):
@@ -60,7 +60,7 @@ def _mould(sc, container, height):
     if isinstance(container, Cylinder):
         sc.add_plane(point=container.center, normal=(0, 0, 1), group="wall")
         sc.add_cylinder(center=container.center, axis=(0, 0, 1), radius=container.radius,
-                        height=height, bottom=False, group="wall")    # the plane is the floor
+                        height=height, bottom=False, group="wall")   # the plane: the floor
     elif isinstance(container, Box):
         lo, hi = container.lo, container.hi
         sc.add_plane(point=lo, normal=(0, 0, 1), group="wall")
@@ -106,7 +106,8 @@ def gravity_deposit(scale: float = 0.05, *, sample: str = "slope", wire: bool = 
         raise ValueError(f"sample must be one of {', '.join(map(repr, SAMPLES))}, got {sample!r}")
     anderson, hot_sweeps = solver_choice(anderson, hot_sweeps)
     for name, v in (("mu", mu), ("mu_wall", mu_wall), ("mu_wire", mu_wire)):
-        if isinstance(v, bool) or not isinstance(v, (int, float, np.number)) or not 0 <= v < math.inf:
+        if (isinstance(v, bool) or not isinstance(v, (int, float, np.number))
+                or not 0 <= v < math.inf):
             raise ValueError(f"{name} must be a number >= 0 (Coulomb friction), got {v!r}")
     check_rest_run(steps, ke_fraction, record_every)
     kw = dict(wire=wire, seed=seed)

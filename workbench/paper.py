@@ -475,9 +475,11 @@ def _fig10(runs, seeds):
         return (None, "runs missing"), (None, "runs missing")
     per = "; ".join(f"seed {sd}: " + ", ".join(f"{th[t][k]:.1f}°" for t in th)
                     for k, sd in enumerate(used))
+    n = len(used)
     base = (f"max slope (paper's fits: linear sand, cubic TexSol), sand / 400 / 800 km·m⁻³, "
-            f"per seed: {per}; straight-line fits, mean of {len(used)} seeds: "
-            + " / ".join(f"{np.mean(lin[t]):.1f}°" for t in th))
+            f"per seed: {per}; straight-line fits" + (f", mean of {n} seeds" if n > 1 else "")
+            + ": " + " / ".join(f"{np.mean(lin[t]):.1f}°" for t in th))
+    over = f" (mean ± std over {n} seeds)" if n > 1 else ""
     d400 = _seed_stats([a - b for a, b in zip(th["w400"], th["sand"])])
     d800 = _seed_stats([a - b for a, b in zip(th["w800"], th["sand"])])
     d84 = _seed_stats([a - b for a, b in zip(th["w800"], th["w400"])])
@@ -487,13 +489,12 @@ def _fig10(runs, seeds):
     def fmt(d):
         return f"{d[0]:+.1f}° ± {d[1]:.1f}°" if d[2] > 1 else f"{d[0]:+.1f}° (one seed)"
 
-    a = (ok_a, f"{base}; TexSol − sand: 400 {fmt(d400)}, 800 {fmt(d800)} (mean ± std over "
-               f"{len(used)} seeds)")
+    a = (ok_a, f"{base}; TexSol − sand: 400 {fmt(d400)}, 800 {fmt(d800)}{over}")
     b = (_significant(*d84), f"max slope (paper's fits) at 800 minus at 400 km·m⁻³, paired by "
-                             f"seed: {fmt(d84)} (mean ± std over {len(used)} seeds; "
-                             f"per seed " + ", ".join(f"{x:+.1f}°" for x in
-                                                      np.subtract(th["w800"], th["w400"]))
-                             + "; each heap's slope in fig10a)")
+                             f"seed: {fmt(d84)}{over}; per seed "
+                             + ", ".join(f"{x:+.1f}°" for x in
+                                         np.subtract(th["w800"], th["w400"]))
+                             + " (each heap's slope in fig10a)")
     return a, b
 
 

@@ -148,12 +148,13 @@ def test_fig10_pairs_the_heaps_by_seed():
     assert "400 +3.1° ± 0.7°" in a[1] and "seed 2: 9.0°, 12.8°, 14.5°" in a[1]
     a, b = _fig10([seed(10, 13, 13), seed(11, 13.5, 13.4), seed(9, 12.8, 12.9)], (0, 1, 2))
     assert a[0] is True and b[0] is False                  # 800 - 400: +0.0 ± 0.1
-    assert "paired by seed: +0.0° ± 0.1° (mean ± std over 3 seeds; per seed +0.0°, -0.1°, " \
+    assert "paired by seed: +0.0° ± 0.1° (mean ± std over 3 seeds); per seed +0.0°, -0.1°, " \
            "+0.1°" in b[1] and "seed 0:" not in b[1]
     a, b = _fig10([seed(10, 13, 9), seed(11, 13.5, 14), seed(9, 12.8, 8)], (0, 1, 2))
     assert a[0] is False                                   # 800 - sand: +0.3 ± 2.3
     a, b = _fig10([seed(10, 13, 15), dict(sand=None, w400=None, w800=None)], (0, 1))
     assert a[0] is None and b[0] is None and "(one seed)" in a[1]
+    assert "over 1 seeds" not in a[1] + b[1] and "mean of 1" not in a[1]
     assert _fig10([dict(sand=None, w400=None, w800=None)], (0,))[0] == (None, "runs missing")
 
 

@@ -218,9 +218,9 @@ def fallen(model, state) -> np.ndarray:
     """(n_spheres,) bool, in ``model.sphere_ids`` order: the free spheres that have fallen
     off the scene, i.e. lie wholly beyond every fixed sphere along gravity by more than
     their own diameter (a floor of fixed beads has an edge; a plane has none).  Without
-    gravity or fixed spheres nothing has fallen.  (The slope deposit's grains that rolled
-    off the rubber floor's edge fall for good: 0.2 m below a heap of 10 mm, they would set
-    the framing of every picture.)"""
+    gravity or fixed spheres nothing has fallen.  (The slope deposit's grains that roll
+    off the rubber floor's edge fall for the rest of the run: far below the heap, they
+    would set the framing of its pictures.)"""
     ids = model.sphere_ids
     out = np.zeros(ids.size, bool)
     g = np.asarray(model.options.gravity, float)

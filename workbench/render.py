@@ -46,6 +46,7 @@ Only this module and :mod:`workbench.meshes`' PyVista wrappers import PyVista (l
 """
 from __future__ import annotations
 
+import dataclasses
 import os
 from pathlib import Path
 
@@ -204,13 +205,6 @@ def _select(part, mask):
                        point_data={k: v[idx] for k, v in part.point_data.items()})
 
 
-def _with_kind(part, kind):
-    """The vertex part with its ``kind`` replaced (the picture's own copy)."""
-    data = dict(part.point_data, kind=np.asarray(kind, dtype=part.point_data["kind"].dtype))
-    return meshes.Part(points=part.points, cell_type=part.cell_type, cells=part.cells,
-                       point_data=data)
-
-
 def _black_legend_text(legend, colors) -> None:
     """Legend labels in black, each symbol in its colour.  vtkLegendBoxActor paints an
     entry's text in the entry's colour (the light sand colour was hard to read on white);
@@ -251,7 +245,9 @@ def add_beads(pl, model, state, *, walls: bool = True, wall_opacity: float = 0.1
                 (part.point_data["kind"] != meshes.BEAD_WIRE)
             colors = [SAND_COLOR, WIRE_COLOR] + ([FIXED_COLOR] if fixed.any() else [])
             if fixed.any():
-                part = _with_kind(part, np.where(fixed, FIXED_KIND, part.point_data["kind"]))
+                kind = np.where(fixed, FIXED_KIND, part.point_data["kind"])
+                part = dataclasses.replace(part, point_data=dict(
+                    part.point_data, kind=kind.astype(part.point_data["kind"].dtype)))
             _spheres(pl, part, "beads", scalars="kind", cmap=colors,
                      clim=(-0.5, len(colors) - 0.5), n_colors=len(colors),
                      show_scalar_bar=False)

@@ -96,8 +96,8 @@ SCALES = {
         fig14_seeds=(0, 1, 2, 3, 4), k_list=tuple(PAPER_VALUES["table2_k"]),
         description="reduced samples (1 300 slope grains, 1 300 box grains, 1 860 cylinder "
                     "grains: 5-30 % of the paper's counts), 5 % strain in the box and the "
-                    "paper's 10 % in the cylinder, 3 seeds for Fig. 7 and 10, 5 for Fig. 11, 12, 13c "
-                    "and 14, the paper's 10 k values"),
+                    "paper's 10 % in the cylinder, 3 seeds for Fig. 7 and 10, 5 for Fig. 11, "
+                    "12, 13c and 14, the paper's 10 k values"),
     "paper": Scale(
         "paper", False,
         deposit=dict(scale=1.0, steps=12000, dt=5e-5, frames=1000),

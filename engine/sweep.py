@@ -310,10 +310,17 @@ def _reporter(report):
     return send
 
 
+class CaseInterrupted(KeyboardInterrupt):
+    """A case's run was stopped by Ctrl-C / SIGTERM: it is not a result (its steps were
+    not all run) nor a failure to retry; the sweep stops, keeps the cases finished, and
+    runs this one again when it is run again."""
+
+
 def run_case(experiment, params: dict, fixed: dict | None = None, report=None) -> dict:
     """Run one case and return ``{"result", "elapsed", "worker"}``; what runs on a worker.
     Exceptions propagate (the caller records them).  ``report``: where the case's stages
-    report their steps (see :func:`_reporter`; None: nowhere)."""
+    report their steps (see :func:`_reporter`; None: nowhere).  Raises
+    :class:`CaseInterrupted` when the run was stopped by Ctrl-C / SIGTERM."""
     from .experiments.common import report_stages_to
 
     fn = _resolve(experiment)
@@ -322,6 +329,11 @@ def run_case(experiment, params: dict, fixed: dict | None = None, report=None) -
         res = fn(**params, **(fixed or {}))
     elapsed = time.perf_counter() - t0
     if hasattr(res, "convergence") and not isinstance(res, Mapping):
+        if (res.convergence or {}).get("interrupted"):
+            c = res.convergence
+            raise CaseInterrupted(f"{_experiment_name(experiment)} {json.dumps(params)}: "
+                                  f"interrupted after {c.get('steps', 0)} steps (history "
+                                  f"{getattr(res, 'history', None)})")
         res = scalars_of(res)
     if not isinstance(res, Mapping):
         raise TypeError(f"experiment {_experiment_name(experiment)} returned {type(res).__name__}, "
@@ -611,6 +623,17 @@ def sweep(experiment, grid, client=None, *, out="out/sweep.json", retries: int =
     try:
         _run_todo(fn, todo, client, fixed, n_workers, finished, failed, on_stage, show,
                   bar is not None, no_worker_timeout)
+    except KeyboardInterrupt:
+        # Ctrl-C / SIGTERM: the finished cases are in the table already; the others stay
+        # pending (not failed), so running the sweep again runs them
+        if bar is not None:
+            bar.close()
+            bar = None
+        save()
+        n_done = sum(r["status"] == "done" for r in rows)
+        say(f"sweep {name}: interrupted; {n_done} of {n_total} cases done in {out}, the "
+            f"{sum(r['status'] == 'pending' for r in rows)} pending run when it is run again")
+        raise
     finally:
         if bar is not None:
             bar.close()

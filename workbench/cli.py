@@ -410,6 +410,10 @@ def cmd_run(a) -> int:
     res = run_config(cfg, params, out)
     print(res)
     print("wrote:\n  " + "\n  ".join(str(p) for p in [res.history, *figures_of(res, out)]))
+    if res.convergence.get("interrupted"):
+        print(f"nscd run: interrupted after {res.convergence['steps']} steps; what it computed "
+              f"is above", file=sys.stderr)
+        return INTERRUPTED
     return 0
 
 
@@ -558,10 +562,14 @@ def parser() -> argparse.ArgumentParser:
     return p
 
 
+INTERRUPTED = 130  # the shell's code for a command stopped by SIGINT
+
+
 def main(argv=None) -> int:
     """Exit codes: 0 done; 1 a run failed (it did not converge, the sample came apart, a
     value became NaN: the message says where the history is); 2 bad input (a file, a
-    parameter); one line on stderr, no traceback, in both error cases."""
+    parameter); 130 stopped by Ctrl-C / SIGTERM (``nscd run`` still writes the figures of
+    the steps run; a sweep keeps its finished cases); one line on stderr, no traceback."""
     from engine.experiments import ConfinementError, ConvergenceError
     from engine.step import SimulationError
 
@@ -581,6 +589,9 @@ def main(argv=None) -> int:
     except ValueError as e:
         print(f"nscd {a.command}: {e}", file=sys.stderr)
         return 2
+    except KeyboardInterrupt as e:   # Ctrl-C outside the steps (the engine stops those)
+        print(f"nscd {a.command}: interrupted{f': {e}' if str(e) else ''}", file=sys.stderr)
+        return INTERRUPTED
     except BrokenPipeError:  # `nscd info RUN.h5 | head`: the reader left, nothing to say
         os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
         return 1

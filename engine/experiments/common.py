@@ -69,7 +69,8 @@ class TestResult:
 
     def __str__(self):
         c = self.convergence
-        s = (f"{self.name}: {len(self.time)} records, {c.get('steps', 0)} steps, "
+        s = (f"{self.name}: {len(self.time)} records, {c.get('steps', 0)} steps"
+             f"{interrupted_note(self)}, "
              f"{c.get('non_converged', 0)} not converged ({c.get('share', 0):.1%}); ")
         if self.params.get("iso_reached") is False:
             s += "isotropic stage NOT reached (see the warning); "
@@ -336,11 +337,16 @@ def rest_recording(model, state, ids, *, history, record_every, frames, progress
                              desc=desc)
 
 
+def interrupted_note(result) -> str:
+    """", INTERRUPTED (Ctrl-C / SIGTERM)" for a result whose run was stopped, else ""."""
+    return ", INTERRUPTED (Ctrl-C / SIGTERM)" if result.convergence.get("interrupted") else ""
+
+
 def rest_summary(result, middle: str) -> str:
     """One line on a run to rest: name, at rest or not after how many steps, ``middle``
     (the test's own numbers), the wire's tortuosity before and after, the history."""
     s = (f"{result.name}: {'at rest' if result.at_rest else 'NOT at rest'} after "
-         f"{result.convergence.get('steps', 0)} steps; {middle}")
+         f"{result.convergence.get('steps', 0)} steps{interrupted_note(result)}; {middle}")
     if result.wire_before is not None:
         s += (f"; tortuosity {result.wire_before.tortuosity:.0f} -> "
               f"{result.wire_after.tortuosity:.0f} 1/m")
@@ -400,10 +406,13 @@ def history_writer(path, recorder: Recorder, units: dict, every: int, frames: in
 
 
 def finish(result: TestResult, stages: Stages, limit: float):
-    """Fill the convergence record and fail loudly past the limit."""
+    """Fill the convergence record and fail loudly past the limit.  A run stopped by
+    Ctrl-C / SIGTERM is returned as it is (``convergence["interrupted"]``, the state
+    reached in its history): it is not judged on the steps it did not run, so the user
+    keeps what it computed (the hard first steps of a deposit would fail it otherwise)."""
     result.convergence = stages.convergence(limit)
     c = result.convergence
-    if c["steps"] and c["share"] > limit:
+    if c["steps"] and c["share"] > limit and not c["interrupted"]:
         raise ConvergenceError(
             f"{result.name}: {c['non_converged']} of {c['steps']} steps ({c['share']:.1%}) hit "
             f"max_iter without reaching tol (limit {limit:.0%}); raise max_iter, loosen tol or "

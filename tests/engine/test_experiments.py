@@ -300,3 +300,30 @@ def test_solver_choice_defaults_to_hot_sweeps_unless_anderson_is_asked_for():
     assert solver_choice(4, None) == (4, 0)
     assert solver_choice(0, 0) == (0, 0) and solver_choice(0, 3) == (0, 3)
     assert solver_choice(4, 2) == (4, 2)     # refused later by compile, with its message
+
+
+@pytest.mark.parametrize("fn, kw", [(gravity_deposit, dict(sample="box")),
+                                    (box_triaxial, dict(axial_strain=0.002))])
+def test_an_interrupted_run_returns_what_it_computed(fn, kw, monkeypatch, tmp_path):
+    """Ctrl-C / SIGTERM at step 30 of a run whose every step misses tol: the result of the
+    30 steps is returned with its history (not a ConvergenceError judging the steps not run)."""
+    import os
+    import signal
+
+    import engine.experiments.common as common
+    from engine.io import load
+    from engine.step import CallbackWriter
+
+    real = common.run
+
+    def stop(model, state):
+        if state.step == 30:
+            os.kill(os.getpid(), signal.SIGINT)
+
+    monkeypatch.setattr(common, "run", lambda model, state, n, writers=(), **k: real(
+        model, state, n, writers=[*writers, CallbackWriter(stop)], **k))
+    r = fn(0.02, max_iter=2, tol=1e-12, history=str(tmp_path / "h.h5"), progress=False, **kw)
+    c = r.convergence
+    assert c["interrupted"] and c["steps"] == 30 and c["share"] > c["limit"]
+    assert "INTERRUPTED" in str(r)
+    assert load(r.history, frame=-1)[1].step == 30          # the state reached is kept

@@ -223,3 +223,52 @@ def test_named_experiment_rejects_bad_input_before_running(tmp_path):
             sweep("box_triaxial", grid, "serial", out=tmp_path / "bad.json", retries=0,
                   progress=False)
     assert not (tmp_path / "bad.json").exists()
+
+
+
+class _Stopped:
+    """What an experiment stopped by Ctrl-C returns (a result whose convergence record
+    says so), reduced."""
+
+    def __init__(self, steps):
+        self.convergence = dict(steps=steps, interrupted=True)
+        self.history = None
+
+
+def stopped_drop(*, height: float, stop_at: float | None = None):
+    """A sphere falling 50 steps; Ctrl-C stops the run at step 5 when ``height == stop_at``
+    (a fixed argument: not part of the case's key)."""
+    import signal
+
+    from engine.step import CallbackWriter
+
+    def interrupter(model, state):
+        if height == stop_at and state.step == 5:
+            os.kill(os.getpid(), signal.SIGINT)
+
+    s = Scene(gravity=(0.0, 0.0, -9.81))
+    s.add_spheres(np.array([[0.0, 0.0, height]]), 1e-3, density=2650.0, group="sand")
+    model, state = s.compile(dt=1e-4)
+    summary = run(model, state, 50, writers=[CallbackWriter(interrupter)], progress=False)
+    if summary.interrupted:
+        return _Stopped(summary.steps)
+    return dict(steps=summary.steps, z=float(state.position[0, 2]))
+
+
+def test_an_interrupted_case_stops_the_sweep_and_runs_again_later(tmp_path, capsys):
+    """Ctrl-C during a case: the cases finished are kept, the stopped one is neither a result
+    nor a failure (it stays pending) and the cases after it wait; the next run runs them."""
+    from engine.sweep import CaseInterrupted
+
+    out = tmp_path / "i.json"
+    grid = [{"height": 2e-3}, {"height": 3e-3}, {"height": 4e-3}]
+    with pytest.raises(CaseInterrupted, match="interrupted after 5 steps"):
+        sweep(stopped_drop, grid, "serial", out=out, fixed={"stop_at": 3e-3})
+    assert "interrupted; 1 of 3 cases done" in capsys.readouterr().out
+    rows = load_table(out).rows
+    assert [r["status"] for r in rows] == ["done", "pending", "pending"]
+    assert rows[1]["errors"] == []                  # not counted as a failed attempt
+    again = sweep(stopped_drop, grid, "serial", out=out, progress=False)
+    assert [r["skipped"] for r in again.rows] == [True, False, False]
+    assert [r["status"] for r in again.rows] == ["done"] * 3
+    assert [r["result"]["steps"] for r in again.rows] == [50] * 3

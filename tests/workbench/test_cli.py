@@ -96,6 +96,41 @@ def test_a_failed_run_is_one_line_with_exit_code_1(tmp_path, capsys):
     assert "nscd run: warning: the isotropic stage did not reach" in err
 
 
+def test_an_interrupted_run_keeps_its_figures_and_exits_130(tmp_path, capsys, monkeypatch):
+    """Ctrl-C at step 30 of the failing run above: no failure (the steps not run are not
+    judged), the figures of the 30 steps, and the shell's code for SIGINT."""
+    import os
+    import signal
+
+    import engine.experiments.common as common
+    from engine.step import CallbackWriter
+
+    real = common.run
+
+    def stop(model, state):
+        if state.step == 30:
+            os.kill(os.getpid(), signal.SIGINT)
+
+    monkeypatch.setattr(common, "run", lambda model, state, n, writers=(), **k: real(
+        model, state, n, writers=[*writers, CallbackWriter(stop)], **k))
+    p = tmp_path / "c.toml"
+    p.write_text('test = "box_triaxial"\nscale = 0.02\n[parameters]\naxial_strain = 0.002\n'
+                 'max_iter = 2\ntol = 1e-12\nmax_nonconverged = 0.1\n')
+    assert cli.main(["run", str(p), "--out", str(tmp_path / "o")]) == cli.INTERRUPTED == 130
+    out, err = capsys.readouterr()
+    assert "30 steps, INTERRUPTED" in out and (tmp_path / "o" / "convergence.png").exists()
+    assert "nscd run: interrupted after 30 steps" in err and "Traceback" not in err
+
+
+def test_ctrl_c_outside_the_steps_is_one_line_with_exit_code_130(capsys, monkeypatch):
+    def building(a):
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr(cli, "cmd_info", building)
+    assert cli.main(["info", "x.h5"]) == 130
+    assert capsys.readouterr().err == "nscd info: interrupted\n"
+
+
 def test_paths_that_cannot_be_used_are_one_line_with_exit_code_2(demo, tmp_path, capsys):
     (tmp_path / "afile").write_text("x")
     (tmp_path / "adir.toml").mkdir()

@@ -197,7 +197,8 @@ class Model:
         Order in which the NLGS visits the links: along each wire, even positions first,
         then odd ones.
     body_next : (nb,) int32
-        The bead linked after each bead (-1 if none); linked pairs get no contact.
+        The bead linked after each bead that gets no contact with it (-1 if none: not
+        linked, or linked with ``add_wire(neighbour_contact=True)``).
     options : Options
     """
 

@@ -89,7 +89,8 @@ class Scene:
         self._fixed: set[int] = set()
         self._drives: dict[int, Drive] = {}
         self._drive_mass: dict[int, float] = {}
-        self._links: list[tuple[int, int, object, int]] = []  # (i, j, law, position along its wire)
+        # (i, j, law, position along its wire, whether i and j touch like two spheres)
+        self._links: list[tuple[int, int, object, int, bool]] = []
 
     # -- bodies ------------------------------------------------------------------------------
     def _group_index(self, group) -> int:
@@ -153,7 +154,7 @@ class Scene:
         return np.arange(first, first + n, dtype=np.int32)
 
     def add_wire(self, centers, radius, density, group: str = "wire", law=None,
-                 closed: bool = False) -> np.ndarray:
+                 closed: bool = False, neighbour_contact: bool = False) -> np.ndarray:
         """Add a wire: a chain of beads (spheres) linked i -> i+1 by a wire law (Eq. 7-15).
 
         Parameters
@@ -171,11 +172,20 @@ class Scene:
             g_ref = g(0)/(1+ε₀) with g(0) its initial centre distance (Eq. 7).
         closed : bool
             Also link the last bead to the first.
+        neighbour_contact : bool
+            False (default): linked beads get no contact with each other, so a slack wire
+            link lets its two beads overlap.  True: they also touch like any two spheres,
+            with the group's own law (``interact(group, group, ...)``; none declared, no
+            contact): the beads stay solid.  A unilateral law whose reference length L
+            exceeds 2 r_w (the samples': L = 2 r_w + gap) pulls only beyond L and the
+            contact pushes only below 2 r_w, so the two never act at once.
 
         Returns
         -------
-        (n,) int32 bead ids.  Linked beads get no contact with each other.
+        (n,) int32 bead ids.
         """
+        if not isinstance(neighbour_contact, (bool, np.bool_)):
+            raise ValueError(f"neighbour_contact must be True or False, got {neighbour_contact!r}")
         if not isinstance(law, _laws.WireLaw):
             raise ValueError(f"law must be a wire law (RigidRod, ElasticRod, RigidWire, "
                              f"ElasticWire, BrittleElasticWire), got {law!r}")
@@ -192,7 +202,8 @@ class Scene:
                              f"{2 * r * (1 - OVERLAP_TOLERANCE):.6g} m) at links {bad[:10].tolist()}")
         ids = self.add_spheres(c, r, density, group=group)
         for k in range(len(nxt)):
-            self._links.append((int(ids[k]), int(ids[(k + 1) % len(ids)]), law, k))
+            self._links.append((int(ids[k]), int(ids[(k + 1) % len(ids)]), law, k,
+                                bool(neighbour_contact)))
         return ids
 
     def _add_wall(self, kind, point, axis, radius, height, caps, group) -> int:
@@ -521,8 +532,9 @@ class Scene:
         lp = np.asarray([lk[2].params() for lk in self._links], float).reshape(-1, _laws.N_PARAM)
         link_pos = np.asarray([lk[3] for lk in self._links], np.int64)
         g0 = np.linalg.norm(pos[link_i] - pos[link_j], axis=1) if len(self._links) else np.zeros(0)
-        body_next = -np.ones(nb, np.int32)
-        body_next[link_i] = link_j
+        body_next = -np.ones(nb, np.int32)      # the linked pairs that get no contact
+        apart = np.asarray([not lk[4] for lk in self._links], bool)
+        body_next[link_i[apart]] = link_j[apart]
         inertia = np.full(nb, np.inf)
         inertia[sphere_ids] = 0.4 * mass[sphere_ids] * radius[sphere_ids] ** 2
         body_dyn = np.zeros((nb, 8))

@@ -55,6 +55,9 @@ class _Strict(NumbersOnly):
 class WireConfig(_Strict):
     law: Literal["elastic", "rigid", "none"] = "elastic"
     stiffness: float = Field(1.0, gt=0, description="[N], elastic wire only")
+    neighbour_contact: bool = Field(False, description="linked beads also touch like two "
+                                                       "spheres (false: a slack link's beads "
+                                                       "may overlap)")
 
 
 class SolverParams(_Strict):
@@ -259,6 +262,7 @@ def run_config(cfg: RunConfig, params: BaseModel, out: Path, progress=True):
         kw["wire"] = True
         kw["wire_law"] = (laws.RigidWire() if cfg.wire.law == "rigid"
                           else laws.ElasticWire(stiffness=cfg.wire.stiffness))
+        kw["neighbour_contact"] = cfg.wire.neighbour_contact
     scale = _default_scale(cfg.test) if cfg.scale is None else cfg.scale
     return fn(scale, seed=cfg.seed, history=str(out / "run.h5"), progress=progress, **kw)
 

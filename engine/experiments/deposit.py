@@ -75,7 +75,7 @@ def _mould(sc, container, height):
 
 
 def gravity_deposit(scale: float = 0.05, *, sample: str = "slope", wire: bool = True,
-                    wire_density: float | None = None, wire_law=None, steps: int = 6000,
+                    wire_density: float | None = None, wire_law=None, neighbour_contact: bool = False, steps: int = 6000,
                     ke_fraction: float = 1e-4, dt: float = 1e-4, theta: float = 0.5,
                     tol: float = 1e-4, max_iter: int = 1000, relax: float = 1.0,
                     anderson: int = 0, threads: int = 1, hot_sweeps: int | None = None,
@@ -100,6 +100,8 @@ def gravity_deposit(scale: float = 0.05, *, sample: str = "slope", wire: bool = 
     (its link's position error)/h that flips sign every step (:func:`engine.prep.relax`).
     The history has a frame of the geometric sample (step 0) and of the end.
     Solver options as in :func:`slope_deposit`.
+    ``neighbour_contact``: linked wire beads also touch like two spheres
+    (:meth:`engine.Scene.add_wire`; default False: a slack link lets its two beads overlap).
     """
     scale = check_scale(scale)
     if sample not in SAMPLES:
@@ -116,7 +118,7 @@ def gravity_deposit(scale: float = 0.05, *, sample: str = "slope", wire: bool = 
     law = wire_law_or_default(wire_law) if wire else None
     smp = paper_sample(sample, scale, **kw)
     sc = Scene(gravity=(0.0, 0.0, -G))
-    sand, beads = smp.add_to(sc, wire_law=law) if wire else (smp.add_to(sc)[0], [])
+    sand, beads = smp.add_to(sc, wire_law=law, neighbour_contact=neighbour_contact) if wire else (smp.add_to(sc)[0], [])
     ids = np.concatenate([sand, *beads]) if beads else np.asarray(sand)
     # the grains start at rest and only settle: a side a little above the sand's top holds
     # them (and frames the pictures on the sample)
@@ -150,7 +152,7 @@ def gravity_deposit(scale: float = 0.05, *, sample: str = "slope", wire: bool = 
         slack_share=float(np.mean(state.links.tension <= 0.0)) if model.n_links else math.nan,
         weight=weight, at_rest=at_rest, history=hist.path,
         params=dict(scale=scale, sample=sample, wire=wire, wire_density=smp.wire_density,
-                    wire_law=repr(law), steps=steps, ke_fraction=ke_fraction, dt=dt,
+                    wire_law=repr(law), neighbour_contact=bool(neighbour_contact), steps=steps, ke_fraction=ke_fraction, dt=dt,
                     theta=theta, tol=tol, max_iter=max_iter, relax=relax, anderson=anderson,
                     threads=threads, hot_sweeps=hot_sweeps, mu=mu, mu_wall=mu_wall,
                     mu_wire=mu_wire, seed=seed, n_sand=int(smp.sand_radii.size),

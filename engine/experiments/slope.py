@@ -67,7 +67,7 @@ def hex_floor(radius: float, extent: float, z: float = 0.0) -> np.ndarray:
 
 
 def slope_deposit(scale: float = 0.02, *, wire: bool = True, wire_density: float | None = None,
-                  wire_law=None, steps: int = 4000, ke_fraction: float = 1e-4,
+                  wire_law=None, neighbour_contact: bool = False, steps: int = 4000, ke_fraction: float = 1e-4,
                   rubber_radius: float = 0.3e-3, floor_extent: float = 5.0, dt: float = 5e-5,
                   theta: float = 0.5, tol: float = 1e-4, max_iter: int = 1000,
                   relax: float = 1.0, anderson: int = 0, threads: int = 1,
@@ -93,6 +93,8 @@ def slope_deposit(scale: float = 0.02, *, wire: bool = True, wire_density: float
     (:attr:`engine.model.Options.threads`); 2 pays only on samples of tens of thousands of
     contacts (docs/speed.md).  ``relax`` (default 1) is the NLGS relaxation factor
     (:attr:`engine.model.Options.relax`; > 1, over-relaxation, on one thread and unmixed).
+    ``neighbour_contact``: linked wire beads also touch like two spheres
+    (:meth:`engine.Scene.add_wire`; default False: a slack link lets its two beads overlap).
     """
     scale = check_scale(scale)
     anderson, hot_sweeps = solver_choice(anderson, hot_sweeps)
@@ -106,7 +108,7 @@ def slope_deposit(scale: float = 0.02, *, wire: bool = True, wire_density: float
     sample.sand_centers = sample.sand_centers + (0, 0, lift)
     sample.wire = [c + (0, 0, lift) for c in sample.wire]
     sc = Scene(gravity=(0.0, 0.0, -G))
-    sand, beads = sample.add_to(sc, wire_law=law) if wire else (sample.add_to(sc)[0], [])
+    sand, beads = sample.add_to(sc, wire_law=law, neighbour_contact=neighbour_contact) if wire else (sample.add_to(sc)[0], [])
     ids = np.concatenate([sand, *beads]) if beads else np.asarray(sand)
     rubber = sc.add_spheres(hex_floor(rubber_radius, floor_extent * R), rubber_radius,
                             density=1000.0, group="rubber")
@@ -168,7 +170,7 @@ def slope_deposit(scale: float = 0.02, *, wire: bool = True, wire_density: float
         **wire_before_after(chains0, chains1, sample.container.volume), at_rest=at_rest,
         history=hist.path,
         params=dict(scale=scale, wire=wire, wire_density=sample.wire_density,
-                    wire_law=repr(law), steps=steps, ke_fraction=ke_fraction,
+                    wire_law=repr(law), neighbour_contact=bool(neighbour_contact), steps=steps, ke_fraction=ke_fraction,
                     rubber_radius=rubber_radius, n_rubber=int(len(rubber)),
                     floor_extent=floor_extent, dt=dt, theta=theta, tol=tol,
                     max_iter=max_iter, relax=relax, anderson=anderson, threads=threads,

@@ -132,7 +132,7 @@ def _stage_arrays(rec, stage_of):
 
 
 def cylinder_triaxial(scale: float = 0.05, *, pressure: float = 15e3, wire: bool = True,
-                      wire_law=None, axial_strain: float = 0.1, strain_rate: float | None = None,
+                      wire_law=None, neighbour_contact: bool = False, axial_strain: float = 0.1, strain_rate: float | None = None,
                       target_I: float = 5e-4, allow_dynamic: bool = False, dt: float = 5e-5,
                       theta: float = 0.5, tol: float = 3e-4, max_iter: int = 1000,
                       relax: float = 1.0, anderson: int = 0, threads: int = 1, hot_sweeps: int | None = None, mu: float = 0.5,
@@ -154,6 +154,8 @@ def cylinder_triaxial(scale: float = 0.05, *, pressure: float = 15e3, wire: bool
     ``compaction_mu``: the friction coefficient of every contact during the isotropic stage
     (None: the test's own; at least :data:`CYLINDER_COMPACTION_MU_MIN`), see
     :func:`_compaction`.
+    ``neighbour_contact``: linked wire beads also touch like two spheres
+    (:meth:`engine.Scene.add_wire`; default False: a slack link lets its two beads overlap).
 
     Returns a :class:`TestResult` (triaxial stage; the isotropic stage in
     ``extra["isotropic"]``); ``extra`` also holds the toroidal wire-stress maps at
@@ -179,7 +181,7 @@ def cylinder_triaxial(scale: float = 0.05, *, pressure: float = 15e3, wire: bool
             f"free-surface confinement needs at least 5.5 (scale >= 0.04): on thinner samples "
             f"it threw grains out at tens of m/s (measured at scale 0.03)")
     sc = Scene(gravity=(0.0, 0.0, -G))
-    sand, beads = sample.add_to(sc, wire_law=law) if wire else (sample.add_to(sc)[0], [])
+    sand, beads = sample.add_to(sc, wire_law=law, neighbour_contact=neighbour_contact) if wire else (sample.add_to(sc)[0], [])
     floor = sc.add_plane(point=(0, 0, 0), normal=(0, 0, 1), group="wall")
     top_z = sample.height
     d_mean = 2 * float(sample.sand_radii.mean())
@@ -283,7 +285,7 @@ def cylinder_triaxial(scale: float = 0.05, *, pressure: float = 15e3, wire: bool
         hist.close()
     tri, iso = _split(rec, stage_of)
     res = _result("cylinder_triaxial", tri, H0, history)
-    res.params = dict(scale=scale, pressure=p, wire=wire, wire_law=repr(law), axial_strain=eps_max,
+    res.params = dict(scale=scale, pressure=p, wire=wire, wire_law=repr(law), neighbour_contact=bool(neighbour_contact), axial_strain=eps_max,
                       strain_rate=rate, inertial_number=I, loading_velocity=rate * H0, dt=dt,
                       theta=theta, tol=tol, max_iter=max_iter, anderson=anderson, threads=threads,
                       hot_sweeps=hot_sweeps, mu=mu,
@@ -412,7 +414,7 @@ def _result(name, tri, H0, history):
 
 
 def box_triaxial(scale: float = 0.05, *, pressure: float = 15e3, wire: bool = True,
-                 wire_law=None, bead_radius: float | None = None, axial_strain: float = 0.05,
+                 wire_law=None, neighbour_contact: bool = False, bead_radius: float | None = None, axial_strain: float = 0.05,
                  strain_rate: float | None = None, target_I: float = 5e-4,
                  allow_dynamic: bool = False, dt: float = 5e-5, theta: float = 0.5,
                  tol: float = 3e-4, max_iter: int = 1000, relax: float = 1.0,
@@ -432,6 +434,8 @@ def box_triaxial(scale: float = 0.05, *, pressure: float = 15e3, wire: bool = Tr
     follows the sample) and a top wall servo-controlled to the same stress, then moved down
     at a constant velocity.  The side walls are frictionless by default (``mu_wall``).
     ``compaction_mu``: the friction of the isotropic stage, see :func:`_compaction`.
+    ``neighbour_contact``: linked wire beads also touch like two spheres
+    (:meth:`engine.Scene.add_wire`; default False: a slack link lets its two beads overlap).
 
     ``extra`` holds the wall stresses (compression positive: x−, x+, y−, y+, top) per
     record, the wire Weber stress of the upper and lower halves with principal values and
@@ -448,7 +452,7 @@ def box_triaxial(scale: float = 0.05, *, pressure: float = 15e3, wire: bool = Tr
     box = sample.container
     lo, hi = np.array(box.lo), np.array(box.hi)
     sc = Scene(gravity=(0.0, 0.0, -G))
-    sand, beads = sample.add_to(sc, wire_law=law) if wire else (sample.add_to(sc)[0], [])
+    sand, beads = sample.add_to(sc, wire_law=law, neighbour_contact=neighbour_contact) if wire else (sample.add_to(sc)[0], [])
     bead_ids = np.concatenate(beads) if beads else np.zeros(0, np.int64)
     top_z = sample.height
     d_mean = 2 * float(sample.sand_radii.mean())
@@ -565,7 +569,7 @@ def box_triaxial(scale: float = 0.05, *, pressure: float = 15e3, wire: bool = Tr
         hist.close()
     tri, iso = _split(rec, stage_of)
     res = _result("box_triaxial", tri, H0, history)
-    res.params = dict(scale=scale, pressure=p, wire=wire, wire_law=repr(law),
+    res.params = dict(scale=scale, pressure=p, wire=wire, wire_law=repr(law), neighbour_contact=bool(neighbour_contact),
                       bead_radius=sample.bead_radius, axial_strain=eps_max, strain_rate=rate,
                       inertial_number=I, loading_velocity=rate * H0, dt=dt, theta=theta,
                       tol=tol, max_iter=max_iter, anderson=anderson, threads=threads,

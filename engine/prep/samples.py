@@ -86,17 +86,20 @@ class Sample:
         return float(np.concatenate(tops).max() - z0) if self.sand_radii.size or self.wire else 0.0
 
     def add_to(self, scene, *, sand_group: str = "sand", wire_group: str = "wire",
-               sand_density: float = 2650.0, bead_density: float = 1400.0, wire_law=None):
+               sand_density: float = 2650.0, bead_density: float = 1400.0, wire_law=None,
+               neighbour_contact: bool = False):
         """Add the sand and the wires to an :class:`engine.Scene`.
 
         Returns (sand ids (n,), list of bead-id arrays, one per wire).  ``wire_law`` defaults
-        to ``ElasticWire(stiffness=1.0)`` (the paper's k = 1 N, §3.3).
+        to ``ElasticWire(stiffness=1.0)`` (the paper's k = 1 N, §3.3); ``neighbour_contact``
+        as in :meth:`engine.Scene.add_wire`.
         """
         law = _laws.ElasticWire(stiffness=1.0) if wire_law is None else wire_law
         sand = scene.add_spheres(self.sand_centers, self.sand_radii, density=sand_density,
                                  group=sand_group)
         beads = [scene.add_wire(c, radius=self.bead_radius, density=bead_density,
-                                group=wire_group, law=law) for c in self.wire]
+                                group=wire_group, law=law, neighbour_contact=neighbour_contact)
+                 for c in self.wire]
         return sand, beads
 
     def __str__(self):

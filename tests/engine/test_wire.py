@@ -163,6 +163,47 @@ def test_unilaterality_wire_slack_in_compression_rod_pushes_back(theta):
                 assert t[name][0] == pytest.approx(t[name][1], rel=1e-9) and t[name][0] > 0
 
 
+@pytest.mark.parametrize("neighbour_contact", [False, True], ids=["apart", "touching"])
+def test_slack_link_beads_overlap_unless_they_touch(neighbour_contact, tmp_path):
+    """Two beads of a wire standing one on the other on a floor, the link slack: by default
+    linked beads have no contact and the top bead falls through its neighbour onto the floor;
+    with ``neighbour_contact`` it rests on it, centres 2 r apart (the Signorini condition,
+    within tol), carrying its weight m g, and the wire stays slack (T = 0).  The option
+    survives a save/load (the model's excluded pairs)."""
+    from engine.io import load, save
+
+    gap = 0.2 * R_BEAD
+    s = Scene(gravity=(0, 0, -G))
+    b = s.add_wire([[0, 0, R_BEAD], [0, 0, 3 * R_BEAD + gap]], radius=R_BEAD, density=RHO,
+                   law=laws.ElasticWire(stiffness=0.1), neighbour_contact=neighbour_contact)
+    s.add_plane(point=(0, 0, 0), normal=(0, 0, 1), group="wall")
+    s.interact("wire", "wall", laws.Coulomb(mu=0.3))
+    s.interact("wire", "wire", laws.Coulomb(mu=0.3))
+    model, state = s.compile(dt=1e-4, tol=1e-10)
+    run(model, state, 3000, progress=False)
+    z = state.position[b, 2]
+    assert state.links.tension[0] == 0.0
+    if neighbour_contact:
+        assert z[1] - z[0] == pytest.approx(2 * R_BEAD, rel=1e-4)
+        c = state.contacts
+        top = np.flatnonzero(((c.i == b[0]) & (c.j == b[1])) | ((c.i == b[1]) & (c.j == b[0])))
+        assert len(top) == 1
+        assert c.normal_force[top[0]] == pytest.approx(M_BEAD * G, rel=1e-4)
+    else:
+        # both on the floor, the top bead through the bottom one (its centre within r of it)
+        assert z == pytest.approx([R_BEAD, R_BEAD], rel=1e-3)
+    save(tmp_path / "w.h5", model, state)
+    m2, s2 = load(tmp_path / "w.h5")
+    np.testing.assert_array_equal(s2.link_excluded_next, state.link_excluded_next)
+    assert (state.link_excluded_next[b[0]] == b[1]) is not neighbour_contact
+
+
+def test_neighbour_contact_must_be_a_bool():
+    with pytest.raises(ValueError, match="neighbour_contact must be True or False, got 'yes'"):
+        Scene().add_wire([[0, 0, 0], [0, 0, 3e-3]], radius=R_BEAD, density=RHO,
+                         law=laws.RigidWire(), neighbour_contact="yes")
+
+
 def test_brittle_wire_breaks_at_its_maximum_tension_and_not_before():
     """A bead hanging on a brittle wire is pulled down by a growing force F = ḟ t: the link
     breaks in the step whose tension first exceeds max_tension, then the bead falls free."""

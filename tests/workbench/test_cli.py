@@ -72,10 +72,16 @@ def test_good_config_runs(tmp_path):
 
 def test_deposit_config_runs_and_writes_its_convergence(tmp_path, capsys):
     """The Fig. 7 deposit from a run file (the box sample, ~100 grains): its history and
-    the solver's convergence figure (no stress-strain curve: it has none)."""
+    the solver's convergence figure (no stress-strain curve: it has none).  The wire's
+    ``neighbour_contact`` reaches the scene: no linked pair is left without contact."""
+    from engine.io import load_model
+
     p = tmp_path / "d.toml"
-    p.write_text('test = "gravity_deposit"\nscale = 0.02\n[parameters]\nsample = "box"\n')
+    p.write_text('test = "gravity_deposit"\nscale = 0.02\n[parameters]\nsample = "box"\n'
+                 '[wire]\nneighbour_contact = true\n')
     assert cli.main(["run", str(p), "--out", str(tmp_path / "o")]) == 0
+    m = load_model(str(tmp_path / "o" / "run.h5"))
+    assert m.n_links > 0 and (m.body_next == -1).all()
     out = capsys.readouterr().out
     assert "gravity_deposit: at rest after" in out and "tortuosity" in out
     assert (tmp_path / "o" / "convergence.png").exists()

@@ -474,7 +474,25 @@ def local_client(n_workers: int = 2, *, threads_per_worker: int = 1, **kwargs):
               dashboard_address=":0", silence_logs=logging.ERROR)     # any free port
     kw.update(kwargs)
     cluster = LocalCluster(**kw)
-    return Client(cluster)
+    client = Client(cluster)
+    client.register_plugin(_ignore_ctrl_c_plugin(), name="nscd-ignore-ctrl-c")
+    return client
+
+
+def _ignore_ctrl_c_plugin():
+    """A worker plugin: the workers of a LocalCluster ignore SIGINT.  Ctrl-C in a terminal
+    reaches every process of its group; the sweep's own process stops the sweep (it keeps
+    the finished cases) and closes the cluster, while workers killed by it mid-case made
+    their nannies print tracebacks.  (``setup`` runs in the worker's main thread.)"""
+    from distributed.diagnostics.plugin import WorkerPlugin
+
+    class IgnoreCtrlC(WorkerPlugin):
+        def setup(self, worker):
+            import signal
+
+            signal.signal(signal.SIGINT, signal.SIG_IGN)
+
+    return IgnoreCtrlC()
 
 
 def _error_text(exc, tb_text=None) -> str:

@@ -272,3 +272,60 @@ def test_an_interrupted_case_stops_the_sweep_and_runs_again_later(tmp_path, caps
     assert [r["skipped"] for r in again.rows] == [True, False, False]
     assert [r["status"] for r in again.rows] == ["done"] * 3
     assert [r["result"]["steps"] for r in again.rows] == [50] * 3
+
+
+def _sigint_handler():
+    import signal
+
+    return signal.getsignal(signal.SIGINT) == signal.SIG_IGN
+
+
+def test_local_cluster_workers_ignore_ctrl_c(client):
+    """Ctrl-C is for the sweep's process, which stops the sweep and closes the cluster."""
+    assert list(client.run(_sigint_handler).values()) == [True, True]
+
+
+_CTRL_C_SCRIPT = """
+import sys
+from engine.sweep import sweep
+from tests.engine.test_sweep import drop
+if __name__ == "__main__":
+    grid = [dict(height=2e-3, steps=200)] + [dict(height=h, steps=10_000_000) for h in (3e-3, 4e-3)]
+    try:
+        sweep(drop, grid, None, out=sys.argv[1], n_workers=2)
+    except KeyboardInterrupt:
+        sys.exit(130)
+"""
+
+
+def test_ctrl_c_on_a_local_cluster_keeps_the_finished_cases_quietly(tmp_path):
+    """Ctrl-C in a terminal (SIGINT to the whole process group) while a LocalCluster sweep
+    runs: the finished case stays done, the running ones stay pending (not failed), the
+    cluster closes, and nothing prints a traceback (a nanny did in one of the two runs tried
+    before the workers ignored SIGINT)."""
+    import signal
+    import subprocess
+    import sys
+    import time
+
+    script, out = tmp_path / "s.py", tmp_path / "t.json"
+    script.write_text(_CTRL_C_SCRIPT)
+    root = Path(__file__).resolve().parents[2]
+    p = subprocess.Popen([sys.executable, str(script), str(out)], cwd=root, text=True,
+                         stdout=subprocess.PIPE, stderr=subprocess.PIPE, start_new_session=True,
+                         env=dict(os.environ, PYTHONPATH=str(root)))
+    try:
+        t0 = time.monotonic()
+        while time.monotonic() - t0 < 120:
+            if out.exists() and any(r["status"] == "done" for r in load_table(out).rows):
+                break
+            time.sleep(0.5)
+        time.sleep(2.0)                              # the two long cases are running
+        os.killpg(p.pid, signal.SIGINT)
+        _, err = p.communicate(timeout=120)
+    finally:
+        if p.poll() is None:
+            os.killpg(p.pid, signal.SIGKILL)
+    assert p.returncode == 130, err
+    assert "Traceback" not in err, err
+    assert [r["status"] for r in load_table(out).rows] == ["done", "pending", "pending"]

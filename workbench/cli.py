@@ -441,7 +441,7 @@ def cmd_paper(a) -> int:
     from .paper import build_report
 
     rep = build_report(a.out, a.scale, scheduler=a.scheduler, render=not a.no_render,
-                       only=a.only, threads=a.threads, reuse_only=a.reuse_only)
+                       only=a.only, threads=a.threads, reuse_only=a.reuse_only, runs=a.runs)
     counts = {}
     for c in rep.claims:
         counts[c.status] = counts.get(c.status, 0) + 1
@@ -550,6 +550,11 @@ def parser() -> argparse.ArgumentParser:
     pp.add_argument("--reuse-only", action="store_true",
                     help="start no run: score the runs already done in OUT and list the "
                          "others as not run (a paper-scale report between sessions)")
+    pp.add_argument("--runs", metavar="NAME,NAME",
+                    help="start only these runs of the claims chosen (if not done); score "
+                         "them with the runs already done in OUT and list the others as not "
+                         "run (a paper-scale report a few runs per session; the names are "
+                         "the report's, e.g. slope_w400_seed2)")
     pp.set_defaults(fn=cmd_paper)
     sw = sub.add_parser("sweep", help="run a test over a grid of parameters on Dask")
     sw.add_argument("test", help="cylinder_triaxial, box_triaxial, slope_deposit or "

@@ -1148,7 +1148,7 @@ def _git_commit():
 
 
 def build_report(out="out/paper", scale="default", *, scheduler=None, progress=True,
-                 render=True, only=None, threads=None, reuse_only=False) -> Report:
+                 render=True, only=None, threads=None, reuse_only=False, runs=None) -> Report:
     """Run (or reuse) every case of ``scale`` and write ``out/report.md`` with the figures,
     the runs, the series and the sweep table.
 
@@ -1160,6 +1160,10 @@ def build_report(out="out/paper", scale="default", *, scheduler=None, progress=T
     sweep table), and list the others as not run: how a paper-scale report that takes
     several sessions is read between them.  The claims missing a run say so and are not
     comparable; a claim on several seeds uses the seeds whose runs are done.
+    ``runs``: names of runs of these claims (a list, or "a,b"): only those are started (if
+    not done already); the report scores them with the other runs already done in ``out``
+    and lists the rest as not run.  How a session of limited length takes on the runs
+    of a paper-scale report a few at a time (``cases_for`` gives the names).
     ``threads``: NLGS threads of each run (None: the tests' default, 1).  It is not part of
     a run's identity: runs made with another count are reused.  Two threads pay on the
     paper-scale slope (1.79× in docs/experiments.md) when one run at a time goes
@@ -1187,17 +1191,27 @@ def build_report(out="out/paper", scale="default", *, scheduler=None, progress=T
     if threads is not None:
         fixed["threads"] = threads
     cases = cases_for(scale, only=chosen)
+    names = _run_names(runs, cases, reuse_only)
     not_run = []
-    if reuse_only:
-        # read the table, write nothing to it: a build may be running in the same folder
+    if reuse_only or names is not None:
+        # read the table; with reuse_only write nothing to it (a build may be running in
+        # the same folder); with runs, run those first
         from engine.sweep import SweepTable, case_key, expand_grid, load_table
 
+        ran = {}
+        t_ran = 0.0
+        if names is not None:
+            part = sweep(paper_case, [c for c in cases if c["name"] in names], scheduler,
+                         out=out / "sweep.json", fixed=fixed, progress=progress)
+            ran = {r["key"]: r for r in part.rows}
+            t_ran = part.wall_time
         done = {r["key"]: r for r in load_table(out / "sweep.json").rows
                 if r["status"] == "done"}
+        done.update({k: r for k, r in ran.items() if r["status"] == "failed"})
         keys = [case_key(paper_case, c) for c in expand_grid(cases)]
         not_run = [c["name"] for c, k in zip(cases, keys) if k not in done]
-        table = SweepTable(rows=[dict(done[k], skipped=True) for k in keys if k in done],
-                           path=str(out / "sweep.json"))
+        table = SweepTable(rows=[ran.get(k, dict(done[k], skipped=True)) for k in keys
+                                 if k in done], path=str(out / "sweep.json"), wall_time=t_ran)
         if not table.rows:
             import warnings
             warnings.warn(f"--reuse-only: no run of these claims is done in {out}",
@@ -1213,16 +1227,16 @@ def build_report(out="out/paper", scale="default", *, scheduler=None, progress=T
         if r["status"] == "done" and p.exists():
             curves[name] = read_curves(p)
     claims = evaluate(curves, rows, scale)
-    runs = None if chosen is None and not not_run else set(rows)   # the runs to draw
+    drawn = None if chosen is None and not not_run else set(rows)   # the runs to draw
     if chosen is not None:
         claims = [c for c in claims if c.id in chosen]
     figs = make_figures(curves, scale, fig_dir, chosen)
     problems = []
     if render:
-        snaps, pr = snapshots(runs_dir, fig_dir, runs)
+        snaps, pr = snapshots(runs_dir, fig_dir, drawn)
         figs.update(snaps)
         problems += pr
-    pvds, pr = series(runs_dir, series_dir, runs)
+    pvds, pr = series(runs_dir, series_dir, drawn)
     problems += pr
     wall = time.perf_counter() - t0
     path = out / "report.md"
@@ -1231,10 +1245,26 @@ def build_report(out="out/paper", scale="default", *, scheduler=None, progress=T
         commit += f"; {end_commit} when the report was written (the runs used the first)"
     path.write_text(_markdown(scale, claims, figs, pvds, table, rows, curves, out, wall,
                               t_sim, problems, scheduler, chosen, threads, commit, not_run,
-                              reuse_only))
+                              reuse_only, names))
     (out / "claims.json").write_text(json.dumps([c.__dict__ for c in claims], indent=1,
                                                 ensure_ascii=False))
     return Report(path, claims, figs, table, wall, problems)
+
+
+def _run_names(runs, cases, reuse_only) -> list | None:
+    """``runs`` ("a,b" or a list of names) checked against the runs of ``cases``."""
+    if runs is None:
+        return None
+    if reuse_only:
+        raise ValueError("runs and reuse_only exclude each other: --reuse-only starts no run")
+    names = [n.strip() for n in runs.split(",")] if isinstance(runs, str) else list(runs)
+    names = [n for n in names if n]
+    known = [c["name"] for c in cases]
+    unknown = [n for n in names if n not in known]
+    if unknown or not names:
+        raise ValueError(f"runs: {', '.join(map(repr, unknown)) or 'none given'} not among the "
+                         f"runs of these claims ({', '.join(known)})")
+    return names
 
 
 def _figure_number(name: str) -> int:
@@ -1266,7 +1296,7 @@ def _rel(p, out):
 
 def _markdown(scale, claims, figs, pvds, table, rows, curves, out, wall, t_sim, problems,
               scheduler, chosen=None, threads=None, commit=None, not_run=(),
-              reuse_only=False) -> str:
+              reuse_only=False, run_names=None) -> str:
     L = []
     now = _dt.datetime.now().strftime("%Y-%m-%d %H:%M")
     counts = {s: sum(c.status == s for c in claims)
@@ -1277,7 +1307,9 @@ def _markdown(scale, claims, figs, pvds, table, rows, curves, out, wall, t_sim, 
           f"Built {now} by `nscd paper --scale {scale.name}"
           f"{' --only ' + ','.join(chosen) if chosen is not None else ''}"
           f"{f' --threads {threads}' if threads is not None else ''}"
-          f"{' --reuse-only' if reuse_only else ''}` (nscd-workbench commit "
+          f"{' --reuse-only' if reuse_only else ''}"
+          f"{' --runs ' + ','.join(run_names) if run_names is not None else ''}` "
+          f"(nscd-workbench commit "
           f"{commit or _git_commit()}), Python {platform.python_version()} on "
           f"{os.cpu_count()} cores; "
           f"cluster: {scheduler or 'LocalCluster, 2 workers'}; NLGS threads per run: "
@@ -1291,10 +1323,13 @@ def _markdown(scale, claims, figs, pvds, table, rows, curves, out, wall, t_sim, 
         L += [f"> **Some claims only** (`--only`): {', '.join(chosen)}. The other claims, "
               "their runs and their figures are not part of this report.", ""]
     if not_run:
-        L += [f"> **Runs not done yet** (`--reuse-only`: this build started none): "
+        how = ("`--reuse-only`: this build started none" if reuse_only else
+               "`--runs`: this build started only those")
+        L += [f"> **Runs not done yet** ({how}): "
               f"{', '.join(not_run)}. The claims reading them use the runs that are done "
               "(the seeds whose runs are all done) or say \"run missing\"; run the same "
-              "command without `--reuse-only` to do them.", ""]
+              f"command without `{'--reuse-only' if reuse_only else '--runs'}` to do them.",
+              ""]
     if scale.smoke:
         L += ["> **Smoke scale.** The samples are far too small and the strains too short for "
               "any claim to be judged: every claim below is marked *not comparable*. The "

@@ -350,3 +350,32 @@ def test_reuse_only_scores_the_runs_done_and_starts_none(tmp_path):
         wp.build_report(tmp_path / "empty", "tiny", only="fig7", reuse_only=True,
                         render=False, progress=False)
     assert not (tmp_path / "empty" / "sweep.json").exists()
+
+
+def test_runs_starts_only_the_runs_named(tmp_path):
+    """``runs``: of the two Fig. 7 seeds only the one named is started; the report scores
+    it, lists the other as not run, and a second build naming the other reuses the first."""
+    import workbench.paper as wp
+
+    out = tmp_path / "p"
+    rep = wp.build_report(out, "tiny", only="fig7", runs="deposit_w400_seed1", render=False,
+                          progress=False, scheduler="serial")
+    assert (out / "runs" / "deposit_w400_seed1.h5").exists()
+    assert not (out / "runs" / "deposit_w400_seed0.h5").exists()
+    text = rep.path.read_text()
+    assert "--only fig7 --runs deposit_w400_seed1`" in text
+    assert "(`--runs`: this build started only those): deposit_w400_seed0." in text
+    assert [r["params"]["name"] for r in rep.table.rows] == ["deposit_w400_seed1"]
+    assert not rep.table.rows[0]["skipped"] and rep.table.wall_time > 0
+    rep2 = wp.build_report(out, "tiny", only="fig7", runs=["deposit_w400_seed0"],
+                           render=False, progress=False, scheduler="serial")
+    assert [(r["params"]["name"], r["skipped"]) for r in rep2.table.rows] == \
+        [("deposit_w400_seed0", False), ("deposit_w400_seed1", True)]
+    assert "Runs not done yet" not in rep2.path.read_text()
+    for runs, says in (("deposit_w400_seed7", "'deposit_w400_seed7' not among the runs"),
+                       (",", "none given not among")):
+        with pytest.raises(ValueError, match=says):
+            wp.build_report(out, "tiny", only="fig7", runs=runs, render=False, progress=False)
+    with pytest.raises(ValueError, match="runs and reuse_only exclude each other"):
+        wp.build_report(out, "tiny", only="fig7", runs="deposit_w400_seed0", reuse_only=True,
+                        render=False, progress=False)

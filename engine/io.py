@@ -394,11 +394,13 @@ def _reading(path, fn):
 
 
 # -- checkpoint API ----------------------------------------------------------------------------
-def save(path, model: Model, state: State) -> None:
+def save(path, model: Model, state: State, extra: dict | None = None) -> None:
     """Write a checkpoint of ``(model, state)`` to ``path`` (HDF5; replaced atomically).
 
     Everything the next step reads is stored, so ``load`` then ``run`` continues bit for
-    bit like the uninterrupted run.
+    bit like the uninterrupted run.  ``extra``: ``{name: array of numbers, or str}``
+    stored beside them (what a driver needs to go on, e.g. an experiment's recorded
+    curves), read back by :func:`load_extra`.
 
     Raises
     ------
@@ -420,6 +422,16 @@ def save(path, model: Model, state: State) -> None:
             _root_attrs(f, "checkpoint")
             _write_model(f.create_group("model"), model, strict=True)
             _write_state(f.create_group("state"), state)
+            if extra:
+                eg = f.create_group("extra")
+                for name, v in extra.items():
+                    if isinstance(v, str):
+                        eg.attrs[name] = v
+                        continue
+                    v = np.asarray(v)
+                    if v.dtype.kind not in "biuf":
+                        raise ValueError(f"extra[{name!r}]: numbers or a str, got {v.dtype}")
+                    eg.create_dataset(name, data=v)
         os.replace(tmp, path)  # a crash during save never spoils an older checkpoint
     finally:
         if os.path.exists(tmp):
@@ -457,6 +469,22 @@ def load(path, frame: int = -1, callables: dict | None = None) -> tuple[Model, S
                                    f"{frame!r} applies to history files only (use -1 or 0)")
             return model, _read_state(f["state"], model)
         return model, _state_from_frame(f, model, frame)
+
+    return _reading(path, read)
+
+
+def load_extra(path) -> dict:
+    """The ``extra`` arrays of a checkpoint written by :func:`save` ({} if none)."""
+    def read(f):
+        if _check_root(f, path) != "checkpoint":
+            raise _BadArgument(f"{path} is not a checkpoint")
+        if "extra" not in f:
+            return {}
+        eg = f["extra"]
+        out = {k: v[()] for k, v in eg.items()}
+        out.update({k: (v.decode() if isinstance(v, bytes) else str(v))
+                    for k, v in eg.attrs.items()})
+        return out
 
     return _reading(path, read)
 
@@ -517,6 +545,10 @@ class History:
     extra : dict, optional
         ``{name: fn}`` or ``{name: (fn, unit)}``: ``fn(model, state)`` returns a scalar or
         an array of fixed shape (e.g. a stress tensor) recorded with the scalars.
+    resume_step : int, optional
+        Go on writing the existing history at ``path`` from this step (a run restarted
+        from a checkpoint of it, :func:`save`): its records and frames after the step are
+        cut, the rest kept.  Its extras must be ``extra``'s.
 
     Records (one per trigger): ``time`` [s], ``step``, ``kinetic_energy`` [J] (spheres),
     ``iterations``, ``residual``, ``converged``, ``n_contacts``, ``n_links`` (links carrying
@@ -533,7 +565,8 @@ class History:
     """
 
     def __init__(self, path, *, trigger: Callable[[int], bool] | int = 1, frames: int = 100,
-                 flush: int | None = None, extra: dict | None = None):
+                 flush: int | None = None, extra: dict | None = None,
+                 resume_step: int | None = None):
         from .step import every
 
         self.path = os.fspath(path)
@@ -556,8 +589,6 @@ class History:
             if not callable(fn):
                 raise ValueError(f"extra[{name!r}] must be a callable (model, state) -> value")
             self.extra[name] = (fn, str(unit))
-        self._file = h5py.File(self.path, "w", libver=LIBVER)
-        _root_attrs(self._file, "history")
         self._ready = False
         self._buf: dict[str, list] = {}
         self._last_flush = None
@@ -565,6 +596,11 @@ class History:
         self._recorded_step = self._framed_step = None
         self.n_records = 0
         self.n_frames = 0
+        if resume_step is not None:
+            self._reopen(int(resume_step))
+            return
+        self._file = h5py.File(self.path, "w", libver=LIBVER)
+        _root_attrs(self._file, "history")
 
     # writer protocol ------------------------------------------------------------------------
     def trigger(self, step: int) -> bool:
@@ -634,6 +670,59 @@ class History:
         self.close()
 
     # internals ----------------------------------------------------------------------------
+    def _reopen(self, step: int) -> None:
+        """Go on writing an existing history from ``step`` (``resume_step``, a run restarted
+        from a checkpoint of that step): the records and frames after it are cut (a killed
+        run had written them before it died; the restarted run writes them again), and the
+        extras must be the same as the file's.  The file is rewritten (a copy replacing it
+        atomically): HDF5 refuses to reopen for writing a file whose SWMR writer was killed."""
+        if not os.path.exists(self.path):
+            raise FileNotFoundError(f"{self.path}: no history to resume")
+        tmp = f"{self.path}.resume{os.getpid()}"
+        src = _open_read(self.path)
+        try:
+            _check_root(src, self.path, "history")
+            if "records" not in src:
+                raise FormatError(f"{self.path}: the history holds no record to resume from")
+            names = json.loads(src["records"].attrs["extra"])
+            if names != list(self.extra):
+                raise ValueError(f"{self.path}: its extras {names} are not this history's "
+                                 f"{list(self.extra)}")
+            with h5py.File(tmp, "w", libver=LIBVER) as dst:
+                for k, v in src.attrs.items():
+                    dst.attrs[k] = v
+                for k in src:
+                    src.copy(src[k], dst, name=k)
+                g, fg = dst["records"], dst["frames"]
+                cols = [*HISTORY_SCALARS, "wall_force", *names]
+                n = min(g[c].shape[0] for c in cols)
+                n = int(np.searchsorted(g["step"][:n], step, side="right"))
+                m = _frame_count(fg)
+                m = int(np.searchsorted(fg["step"][:m], step, side="right"))
+                nc = int(fg["contact_start"][m - 1] + fg["contact_count"][m - 1]) if m else 0
+                for c in cols:
+                    g[c].resize(n, axis=0)
+                for c in ["step", "time", "contact_start", "contact_count", *_FRAME_BODY,
+                          "link_tension", "link_broken"]:
+                    fg[c].resize(m, axis=0)
+                for c in _FRAME_CONTACT:
+                    fg["contacts"][c].resize(nc, axis=0)
+                self._extra_shape = {c: g[c].shape[1:] for c in names}
+                last = (int(g["step"][n - 1]) if n else None,
+                        int(fg["step"][m - 1]) if m else None)
+            src.close()
+            os.replace(tmp, self.path)
+        finally:
+            src.close()
+            if os.path.exists(tmp):
+                os.remove(tmp)
+        self._file = h5py.File(self.path, "a", libver=LIBVER)
+        self._buf = {c: [] for c in cols}
+        self.n_records, self.n_frames = n, m
+        self._recorded_step, self._framed_step = last
+        self._file.swmr_mode = True
+        self._ready = True
+
     def _setup(self, model, state) -> None:
         f = self._file
         first = {}  # evaluate the extras before writing anything: a failing one leaves no trace

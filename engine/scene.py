@@ -175,10 +175,11 @@ class Scene:
         neighbour_contact : bool
             False (default): linked beads get no contact with each other, so a slack wire
             link lets its two beads overlap.  True: they also touch like any two spheres,
-            with the group's own law (``interact(group, group, ...)``; none declared, no
-            contact): the beads stay solid.  A unilateral law whose reference length L
-            exceeds 2 r_w (the samples': L = 2 r_w + gap) pulls only beyond L and the
-            contact pushes only below 2 r_w, so the two never act at once.
+            with the group's own law (``interact(group, group, law)``; with
+            ``interact(group, group, None)``, no contact): the beads stay solid.  A link's
+            law acts towards its reference length L, the contact only below 2 r_w; with
+            L > 2 r_w (the samples': L = 2 r_w + gap) they never fight, and ``compile``
+            refuses a link whose L is below 2 r_w (a prestrain too large).
 
         Returns
         -------
@@ -534,6 +535,18 @@ class Scene:
         g0 = np.linalg.norm(pos[link_i] - pos[link_j], axis=1) if len(self._links) else np.zeros(0)
         body_next = -np.ones(nb, np.int32)      # the linked pairs that get no contact
         apart = np.asarray([not lk[4] for lk in self._links], bool)
+        if len(self._links) and not apart.all():
+            # a link that pulls its beads closer than the contact lets them would fight it
+            ref = g0 / (1.0 + lp[:, 1])
+            bad = np.flatnonzero(~apart & (ref < (radius[link_i] + radius[link_j])
+                                           * (1 - 1e-9)))
+            if bad.size:
+                raise ValueError(
+                    f"neighbour_contact: the reference length g(0)/(1+ε₀) of links "
+                    f"{bad[:10].tolist()} is below the sum of their beads' radii (down to "
+                    f"{(ref[bad] / (radius[link_i] + radius[link_j])[bad]).min():.4f} of it): "
+                    f"the link would pull its beads into their contact; lower the prestrain "
+                    f"or space the beads")
         body_next[link_i[apart]] = link_j[apart]
         inertia = np.full(nb, np.inf)
         inertia[sphere_ids] = 0.4 * mass[sphere_ids] * radius[sphere_ids] ** 2

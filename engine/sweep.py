@@ -48,7 +48,8 @@ from typing import Callable, Mapping
 import numpy as np
 
 __all__ = ["sweep", "SweepTable", "expand_grid", "case_key", "case_id", "run_case",
-           "scalars_of", "load_table", "EXPERIMENTS", "local_client"]
+           "scalars_of", "load_table", "EXPERIMENTS", "local_client", "CaseInterrupted",
+           "not_interrupted"]
 
 #: Format version of the JSON table.
 TABLE_VERSION = 1
@@ -200,7 +201,7 @@ def _paper_test(name):
         key_params = dict(params, wire=wire, k=k)
         kw.setdefault("history", _history_path(key_params, {"history_dir": history_dir}, name))
         kw.setdefault("progress", False)
-        return scalars_of(fn(**kw))
+        return scalars_of(not_interrupted(fn(**kw), name, params))
 
     experiment.__name__ = experiment.__qualname__ = name
     return experiment
@@ -316,6 +317,18 @@ class CaseInterrupted(KeyboardInterrupt):
     runs this one again when it is run again."""
 
 
+def not_interrupted(result, name: str, params: dict):
+    """``result`` (an experiment's), or :class:`CaseInterrupted` when Ctrl-C / SIGTERM stopped
+    its run: what a sweep's experiment wrapper checks before turning a result into table
+    values, so a partial run is never recorded as done."""
+    c = getattr(result, "convergence", None) or {}
+    if c.get("interrupted"):
+        raise CaseInterrupted(f"{name} {json.dumps(params, default=str)}: interrupted after "
+                              f"{c.get('steps', 0)} steps (history "
+                              f"{getattr(result, 'history', None)})")
+    return result
+
+
 def run_case(experiment, params: dict, fixed: dict | None = None, report=None) -> dict:
     """Run one case and return ``{"result", "elapsed", "worker"}``; what runs on a worker.
     Exceptions propagate (the caller records them).  ``report``: where the case's stages
@@ -329,12 +342,7 @@ def run_case(experiment, params: dict, fixed: dict | None = None, report=None) -
         res = fn(**params, **(fixed or {}))
     elapsed = time.perf_counter() - t0
     if hasattr(res, "convergence") and not isinstance(res, Mapping):
-        if (res.convergence or {}).get("interrupted"):
-            c = res.convergence
-            raise CaseInterrupted(f"{_experiment_name(experiment)} {json.dumps(params)}: "
-                                  f"interrupted after {c.get('steps', 0)} steps (history "
-                                  f"{getattr(res, 'history', None)})")
-        res = scalars_of(res)
+        res = scalars_of(not_interrupted(res, _experiment_name(experiment), params))
     if not isinstance(res, Mapping):
         raise TypeError(f"experiment {_experiment_name(experiment)} returned {type(res).__name__}, "
                         f"not a mapping of results")
@@ -489,8 +497,10 @@ def _ignore_ctrl_c_plugin():
     class IgnoreCtrlC(WorkerPlugin):
         def setup(self, worker):
             import signal
+            import threading
 
-            signal.signal(signal.SIGINT, signal.SIG_IGN)
+            if threading.current_thread() is threading.main_thread():   # processes=True
+                signal.signal(signal.SIGINT, signal.SIG_IGN)
 
     return IgnoreCtrlC()
 
@@ -648,6 +658,8 @@ def sweep(experiment, grid, client=None, *, out="out/sweep.json", retries: int =
             bar.close()
             bar = None
         save()
+        if hdf5:
+            write_hdf5(SweepTable(rows=others + rows), out.with_suffix(".h5"))
         n_done = sum(r["status"] == "done" for r in rows)
         say(f"sweep {name}: interrupted; {n_done} of {n_total} cases done in {out}, the "
             f"{sum(r['status'] == 'pending' for r in rows)} pending run when it is run again")
@@ -705,6 +717,7 @@ def _run_dask(fn, todo, client, fixed, n_workers, finished, failed, *, poll=5.0,
     elif isinstance(client, str):
         client = own = Client(client)
     sweep_id = None
+    futures = {}
     try:
         if on_stage is not None:            # the workers' stage reports, as Dask events
             sweep_id = uuid.uuid4().hex[:12]
@@ -753,6 +766,15 @@ def _run_dask(fn, todo, client, fixed, n_workers, finished, failed, *, poll=5.0,
                 else:
                     finished(row, payload)
                 fut.release()
+    except KeyboardInterrupt:
+        # Ctrl-C: the cases running on a cluster of the caller's would go on without anyone
+        # to gather them (our own cluster is closed below)
+        if own is None and futures:
+            try:
+                client.cancel(list(futures))
+            except Exception:  # noqa: BLE001 - the interrupt matters, not the cancel
+                pass
+        raise
     finally:
         if sweep_id is not None:
             _LISTENERS.pop(sweep_id, None)

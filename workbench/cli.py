@@ -9,7 +9,7 @@
     nscd export RUN.h5 OUTDIR                every frame of a history as VTU + a PVD
     nscd info RUN.h5                         what a checkpoint or history holds
     nscd paper [--scale tiny|default|paper] [--out DIR] [--scheduler ADDRESS|serial]
-               [--only CLAIMS] [--threads T] [--reuse-only]
+               [--only CLAIMS] [--threads T] [--reuse-only | --runs NAME,NAME]
                                              reproduce the paper's §3: DIR/report.md, figures,
                                              runs, series (workbench/paper.py)
     nscd sweep TEST --grid NAME=V1,V2 ... [--out TABLE.json] [--scheduler ADDRESS|serial]
@@ -26,6 +26,7 @@ A TOML file for ``nscd run``::
     [wire]
     law = "elastic"                    # "elastic", "rigid" or "none" (sand only)
     stiffness = 1.0                    # [N], elastic only
+    neighbour_contact = false          # true: linked beads also touch (Scene.add_wire)
 
 Unknown keys, wrong types and values out of range are reported together, each with its
 field and the allowed range; nothing runs then.
@@ -34,6 +35,7 @@ from __future__ import annotations
 
 import argparse
 import os
+import signal
 import sys
 import warnings
 from pathlib import Path
@@ -401,7 +403,7 @@ def cmd_demo(a) -> int:
         paths.append(render_frame(res.history, out / f"{preset}.png", preset=preset))
     pvd = export_series(res.history, out / "series", name="cylinder")
     print("wrote:\n  " + "\n  ".join(str(p) for p in [out / "run.h5", *paths, pvd]))
-    return 0
+    return _interrupted(res, "demo")
 
 
 def cmd_run(a) -> int:
@@ -414,11 +416,17 @@ def cmd_run(a) -> int:
     res = run_config(cfg, params, out)
     print(res)
     print("wrote:\n  " + "\n  ".join(str(p) for p in [res.history, *figures_of(res, out)]))
-    if res.convergence.get("interrupted"):
-        print(f"nscd run: interrupted after {res.convergence['steps']} steps; what it computed "
-              f"is above", file=sys.stderr)
-        return INTERRUPTED
-    return 0
+    return _interrupted(res, "run")
+
+
+def _interrupted(res, command) -> int:
+    """0, or :data:`INTERRUPTED` with a line on stderr for a run Ctrl-C / SIGTERM stopped
+    (its result and figures are written above)."""
+    if not res.convergence.get("interrupted"):
+        return 0
+    print(f"nscd {command}: interrupted after {res.convergence['steps']} steps; what it "
+          f"computed is above", file=sys.stderr)
+    return INTERRUPTED
 
 
 def cmd_render(a) -> int:
@@ -584,6 +592,14 @@ def main(argv=None) -> int:
 
     a = parser().parse_args(argv)
 
+    def terminated(signum, frame):   # SIGTERM outside the steps, as Ctrl-C (the steps of
+        raise KeyboardInterrupt        # a run catch both themselves and stop cleanly)
+
+    try:
+        old_term = signal.signal(signal.SIGTERM, terminated)
+    except ValueError:                 # not the main thread (main() called from a thread)
+        old_term = None
+
     def one_line(message, category, filename, lineno, file=None, line=None):
         from tqdm import tqdm  # above a progress bar, not inside it
 
@@ -610,6 +626,8 @@ def main(argv=None) -> int:
         return 2
     finally:
         warnings.showwarning = show
+        if old_term is not None:
+            signal.signal(signal.SIGTERM, old_term)
 
 
 if __name__ == "__main__":

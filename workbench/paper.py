@@ -268,7 +268,7 @@ def paper_case(*, test: str, name: str, wire: str, k=None, seed: int = 0, runs_d
     write its history ``runs_dir/name.h5`` and its curves ``runs_dir/name.curves.h5``, and
     return its scalars (what the sweep table keeps)."""
     from engine import experiments
-    from engine.sweep import scalars_of
+    from engine.sweep import not_interrupted, scalars_of
 
     os.makedirs(runs_dir, exist_ok=True)
     history = os.path.join(runs_dir, f"{name}.h5")
@@ -280,7 +280,7 @@ def paper_case(*, test: str, name: str, wire: str, k=None, seed: int = 0, runs_d
     if test == "slope_deposit" and kw.get("wire_density") is None:
         kw.pop("wire_density", None)
     fn = getattr(experiments, test)
-    res = fn(**kw)
+    res = not_interrupted(fn(**kw), name, dict(test=test, seed=seed, **params))
     arr = {}
     if test in ("slope_deposit", "gravity_deposit"):
         if test == "slope_deposit":

@@ -72,7 +72,7 @@ class TestResult:
         s = (f"{self.name}: {len(self.time)} records, {c.get('steps', 0)} steps"
              f"{interrupted_note(self)}, "
              f"{c.get('non_converged', 0)} not converged ({c.get('share', 0):.1%}); ")
-        if self.params.get("iso_reached") is False:
+        if self.params.get("iso_reached") is False and not c.get("interrupted"):
             s += "isotropic stage NOT reached (see the warning); "
         if len(self.time):
             s += (f"final axial strain {self.axial_strain[-1]:.4f}, deviator "

@@ -152,7 +152,7 @@ def gravity_deposit(scale: float = 0.05, *, sample: str = "slope", wire: bool = 
         slack_share=float(np.mean(state.links.tension <= 0.0)) if model.n_links else math.nan,
         weight=weight, at_rest=at_rest, history=hist.path,
         params=dict(scale=scale, sample=sample, wire=wire, wire_density=smp.wire_density,
-                    wire_law=repr(law), neighbour_contact=bool(neighbour_contact), steps=steps, ke_fraction=ke_fraction, dt=dt,
+                    wire_law=repr(law), neighbour_contact=bool(wire and neighbour_contact), steps=steps, ke_fraction=ke_fraction, dt=dt,
                     theta=theta, tol=tol, max_iter=max_iter, relax=relax, anderson=anderson,
                     threads=threads, hot_sweeps=hot_sweeps, mu=mu, mu_wall=mu_wall,
                     mu_wire=mu_wire, seed=seed, n_sand=int(smp.sand_radii.size),

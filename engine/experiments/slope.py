@@ -170,7 +170,7 @@ def slope_deposit(scale: float = 0.02, *, wire: bool = True, wire_density: float
         **wire_before_after(chains0, chains1, sample.container.volume), at_rest=at_rest,
         history=hist.path,
         params=dict(scale=scale, wire=wire, wire_density=sample.wire_density,
-                    wire_law=repr(law), neighbour_contact=bool(neighbour_contact), steps=steps, ke_fraction=ke_fraction,
+                    wire_law=repr(law), neighbour_contact=bool(wire and neighbour_contact), steps=steps, ke_fraction=ke_fraction,
                     rubber_radius=rubber_radius, n_rubber=int(len(rubber)),
                     floor_extent=floor_extent, dt=dt, theta=theta, tol=tol,
                     max_iter=max_iter, relax=relax, anderson=anderson, threads=threads,

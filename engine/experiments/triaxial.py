@@ -285,7 +285,7 @@ def cylinder_triaxial(scale: float = 0.05, *, pressure: float = 15e3, wire: bool
         hist.close()
     tri, iso = _split(rec, stage_of)
     res = _result("cylinder_triaxial", tri, H0, history)
-    res.params = dict(scale=scale, pressure=p, wire=wire, wire_law=repr(law), neighbour_contact=bool(neighbour_contact), axial_strain=eps_max,
+    res.params = dict(scale=scale, pressure=p, wire=wire, wire_law=repr(law), neighbour_contact=bool(wire and neighbour_contact), axial_strain=eps_max,
                       strain_rate=rate, inertial_number=I, loading_velocity=rate * H0, dt=dt,
                       theta=theta, tol=tol, max_iter=max_iter, anderson=anderson, threads=threads,
                       hot_sweeps=hot_sweeps, mu=mu,
@@ -569,7 +569,7 @@ def box_triaxial(scale: float = 0.05, *, pressure: float = 15e3, wire: bool = Tr
         hist.close()
     tri, iso = _split(rec, stage_of)
     res = _result("box_triaxial", tri, H0, history)
-    res.params = dict(scale=scale, pressure=p, wire=wire, wire_law=repr(law), neighbour_contact=bool(neighbour_contact),
+    res.params = dict(scale=scale, pressure=p, wire=wire, wire_law=repr(law), neighbour_contact=bool(wire and neighbour_contact),
                       bead_radius=sample.bead_radius, axial_strain=eps_max, strain_rate=rate,
                       inertial_number=I, loading_velocity=rate * H0, dt=dt, theta=theta,
                       tol=tol, max_iter=max_iter, anderson=anderson, threads=threads,

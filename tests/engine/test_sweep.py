@@ -324,8 +324,40 @@ def test_ctrl_c_on_a_local_cluster_keeps_the_finished_cases_quietly(tmp_path):
         os.killpg(p.pid, signal.SIGINT)
         _, err = p.communicate(timeout=120)
     finally:
-        if p.poll() is None:
+        try:                    # whatever is left of the group (workers outliving their parent)
             os.killpg(p.pid, signal.SIGKILL)
+        except ProcessLookupError:
+            pass
     assert p.returncode == 130, err
     assert "Traceback" not in err, err
     assert [r["status"] for r in load_table(out).rows] == ["done", "pending", "pending"]
+
+
+def _interrupt_at_step_30(monkeypatch):
+    """Make every experiment run of this process stop at step 30 as on Ctrl-C."""
+    import signal
+
+    import engine.experiments.common as common
+    from engine.step import CallbackWriter
+
+    real = common.run
+
+    def stop(model, state):
+        if state.step == 30:
+            os.kill(os.getpid(), signal.SIGINT)
+
+    monkeypatch.setattr(common, "run", lambda model, state, n, writers=(), **k: real(
+        model, state, n, writers=[*writers, CallbackWriter(stop)], **k))
+
+
+def test_an_interrupted_named_test_is_not_recorded_as_done(tmp_path, monkeypatch):
+    """The paper's tests by name (what ``nscd sweep`` runs) go through a wrapper returning
+    table values: an interrupted run must still stop the sweep and stay pending."""
+    from engine.sweep import CaseInterrupted
+
+    _interrupt_at_step_30(monkeypatch)
+    out = tmp_path / "g.json"
+    with pytest.raises(CaseInterrupted, match="gravity_deposit .* interrupted after 30 steps"):
+        sweep("gravity_deposit", {"scale": [0.02], "sample": ["box"], "seed": [0, 1]}, "serial",
+              out=out, fixed={"history_dir": str(tmp_path / "runs")}, progress=False)
+    assert [r["status"] for r in load_table(out).rows] == ["pending", "pending"]

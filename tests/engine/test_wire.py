@@ -192,16 +192,25 @@ def test_slack_link_beads_overlap_unless_they_touch(neighbour_contact, tmp_path)
     else:
         # both on the floor, the top bead through the bottom one (its centre within r of it)
         assert z == pytest.approx([R_BEAD, R_BEAD], rel=1e-3)
+    assert bool(state.link_excluded_next[b[0]] == b[1]) == (not neighbour_contact)
     save(tmp_path / "w.h5", model, state)
     m2, s2 = load(tmp_path / "w.h5")
+    np.testing.assert_array_equal(m2.body_next, model.body_next)
     np.testing.assert_array_equal(s2.link_excluded_next, state.link_excluded_next)
-    assert (state.link_excluded_next[b[0]] == b[1]) is not neighbour_contact
 
 
-def test_neighbour_contact_must_be_a_bool():
+def test_neighbour_contact_must_be_a_bool_and_not_fight_the_link():
     with pytest.raises(ValueError, match="neighbour_contact must be True or False, got 'yes'"):
         Scene().add_wire([[0, 0, 0], [0, 0, 3e-3]], radius=R_BEAD, density=RHO,
                          law=laws.RigidWire(), neighbour_contact="yes")
+    # L = 2.2 r / 1.2 < 2 r: the rod would hold its beads overlapping against their contact
+    s = Scene()
+    s.add_wire([[0, 0, 0], [0, 0, 2.2 * R_BEAD]], radius=R_BEAD, density=RHO,
+               law=laws.ElasticRod(stiffness=1.0, prestrain=0.2), neighbour_contact=True)
+    s.interact("wire", "wire", laws.Coulomb(mu=0.3))
+    with pytest.raises(ValueError, match=r"reference length .* of links \[0\] is below the "
+                                         r"sum of their beads' radii \(down to 0\.9167"):
+        s.compile(dt=1e-4)
 
 
 def test_brittle_wire_breaks_at_its_maximum_tension_and_not_before():

@@ -170,7 +170,8 @@ def test_run_help_lists_every_parameter_with_its_range(capsys):
 
 #: keywords of the test functions a run file does not set: the outputs, the wire (its
 #: [wire] table) and the sample size and seed (top level)
-NOT_IN_PARAMETERS = {"scale", "seed", "wire", "wire_law", "history", "progress"}
+NOT_IN_PARAMETERS = {"scale", "seed", "wire", "wire_law", "neighbour_contact", "history",
+                     "progress"}
 
 
 @pytest.mark.parametrize("test", sorted(cli._PARAMS))

@@ -379,3 +379,17 @@ def test_runs_starts_only_the_runs_named(tmp_path):
     with pytest.raises(ValueError, match="runs and reuse_only exclude each other"):
         wp.build_report(out, "tiny", only="fig7", runs="deposit_w400_seed0", reuse_only=True,
                         render=False, progress=False)
+
+
+def test_an_interrupted_paper_run_is_not_recorded_as_done(tmp_path, monkeypatch):
+    """``paper_case`` (what ``nscd paper`` runs) refuses to turn an interrupted run into
+    table values: the sweep then leaves it pending."""
+    import workbench.paper as wp
+    from engine.sweep import CaseInterrupted
+    from tests.engine.test_sweep import _interrupt_at_step_30
+
+    _interrupt_at_step_30(monkeypatch)
+    (case,) = [c for c in cases_for(SCALES["tiny"], only="fig7") if c["name"].endswith("0")]
+    with pytest.raises(CaseInterrupted, match="interrupted after 30 steps"):
+        wp.paper_case(**case, runs_dir=str(tmp_path))
+    assert not (tmp_path / f"{case['name']}.curves.h5").exists()

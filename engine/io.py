@@ -548,7 +548,9 @@ class History:
     resume_step : int, optional
         Go on writing the existing history at ``path`` from this step (a run restarted
         from a checkpoint of it, :func:`save`): its records and frames after the step are
-        cut, the rest kept.  Its extras must be ``extra``'s.
+        cut, and so are the ones at the step off the ``trigger`` / ``frames`` grid (a
+        stopped run's record of its end state); the rest is kept.  Its extras must be
+        ``extra``'s.
 
     Records (one per trigger): ``time`` [s], ``step``, ``kinetic_energy`` [J] (spheres),
     ``iterations``, ``residual``, ``converged``, ``n_contacts``, ``n_links`` (links carrying
@@ -695,10 +697,19 @@ class History:
                     src.copy(src[k], dst, name=k)
                 g, fg = dst["records"], dst["frames"]
                 cols = [*HISTORY_SCALARS, "wall_force", *names]
+                # keep up to the last record the trigger takes at or before the step (the
+                # record and frame a stopped run wrote of its end state off that grid go)
                 n = min(g[c].shape[0] for c in cols)
-                n = int(np.searchsorted(g["step"][:n], step, side="right"))
+                steps = g["step"][:n]
+                keep = np.flatnonzero((steps <= step)
+                                      & np.array([bool(self._trigger(int(k))) for k in steps],
+                                                 bool))
+                n = int(keep[-1]) + 1 if keep.size else 0
                 m = _frame_count(fg)
-                m = int(np.searchsorted(fg["step"][:m], step, side="right"))
+                fsteps = fg["step"][:m]
+                keep = np.flatnonzero((fsteps <= step) & (self.frames > 0)
+                                      & (fsteps % max(self.frames, 1) == 0))
+                m = int(keep[-1]) + 1 if keep.size else 0
                 nc = int(fg["contact_start"][m - 1] + fg["contact_count"][m - 1]) if m else 0
                 for c in cols:
                     g[c].resize(n, axis=0)

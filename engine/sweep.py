@@ -33,6 +33,7 @@ path).
 from __future__ import annotations
 
 import hashlib
+import inspect
 import itertools
 import json
 import math
@@ -201,6 +202,8 @@ def _paper_test(name):
         key_params = dict(params, wire=wire, k=k)
         kw.setdefault("history", _history_path(key_params, {"history_dir": history_dir}, name))
         kw.setdefault("progress", False)
+        if "resume" in inspect.signature(fn).parameters:
+            kw.setdefault("resume", True)     # a case stopped or killed goes on from there
         return scalars_of(not_interrupted(fn(**kw), name, params))
 
     experiment.__name__ = experiment.__qualname__ = name

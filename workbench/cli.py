@@ -129,6 +129,11 @@ class BoxParams(TriaxialParams):
     check_every: int = Field(10, ge=1, description="steps between isotropic-stage checks")
 
 
+CHECKPOINT_HELP = ("[steps] a checkpoint (RUN.resume.h5) this often, and when Ctrl-C "
+                   "stops the run (0: only then)")
+RESUME_HELP = "go on from the checkpoint a stopped or killed run of the same file left"
+
+
 class SlopeParams(SolverParams):
     tol: float = Field(1e-4, gt=0, lt=1)
     wire_density: Optional[float] = Field(None, gt=0, description="[m/m³]")
@@ -139,6 +144,8 @@ class SlopeParams(SolverParams):
     mu_floor: float = Field(0.8, ge=0, le=10)
     record_every: int = Field(20, ge=1)
     frames: int = Field(200, ge=0)
+    checkpoint_every: int = Field(0, ge=0, description=CHECKPOINT_HELP)
+    resume: bool = Field(False, description=RESUME_HELP)
 
 
 class DepositParams(SolverParams):
@@ -153,6 +160,8 @@ class DepositParams(SolverParams):
     mu_wall: float = Field(0.5, ge=0, le=10, description="friction of the mould")
     record_every: int = Field(20, ge=1)
     frames: int = Field(200, ge=0)
+    checkpoint_every: int = Field(0, ge=0, description=CHECKPOINT_HELP)
+    resume: bool = Field(False, description=RESUME_HELP)
 
 
 _PARAMS = {"cylinder_triaxial": CylinderParams, "box_triaxial": BoxParams,

@@ -263,10 +263,13 @@ def _outer_radius_profile(history, n_bins=8):
 
 
 def paper_case(*, test: str, name: str, wire: str, k=None, seed: int = 0, runs_dir: str,
-               **params) -> dict:
+               checkpoint_every: int = 60, **params) -> dict:
     """One simulation of the report: run ``test`` (a name of :mod:`engine.experiments`),
     write its history ``runs_dir/name.h5`` and its curves ``runs_dir/name.curves.h5``, and
-    return its scalars (what the sweep table keeps)."""
+    return its scalars (what the sweep table keeps).  The deposits (hours each at the
+    paper's scale) leave a checkpoint every ``checkpoint_every`` steps and when stopped,
+    and go on from it when the case runs again (``resume``): a session, a job or a worker
+    that ends mid-run loses at most that many steps."""
     from engine import experiments
     from engine.sweep import not_interrupted, scalars_of
 
@@ -279,6 +282,10 @@ def paper_case(*, test: str, name: str, wire: str, k=None, seed: int = 0, runs_d
         kw["wire_law"] = law
     if test == "slope_deposit" and kw.get("wire_density") is None:
         kw.pop("wire_density", None)
+    if test in ("slope_deposit", "gravity_deposit"):
+        # hours at the paper's scale: a run stopped or killed goes on from its checkpoint
+        # when the report is built again
+        kw.update(checkpoint_every=checkpoint_every, resume=True)
     fn = getattr(experiments, test)
     res = not_interrupted(fn(**kw), name, dict(test=test, seed=seed, **params))
     arr = {}

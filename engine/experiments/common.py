@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import contextlib
 import contextvars
+import json
 import math
 import os
 import sys
@@ -85,6 +86,12 @@ def check_scale(scale) -> float:
     if not (math.isfinite(s) and s > 0):
         raise ValueError(f"scale must be finite and > 0, got {scale!r}")
     return s
+
+
+def check_bool(name, value) -> bool:
+    if not isinstance(value, (bool, np.bool_)):
+        raise ValueError(f"{name} must be True or False, got {value!r}")
+    return bool(value)
 
 
 def check_positive(name, value, unit):
@@ -237,24 +244,140 @@ class Stages:
                     non_converged_steps=self.non_converged[:1000])
 
 
-def run_to_rest(stages: Stages, steps: int, every: int, ke_fraction: float, energy) -> bool:
+def run_to_rest(stages: Stages, steps: int, every: int, ke_fraction: float, energy,
+                checkpoint: "RestCheckpoint | None" = None, peak: float = 0.0) -> bool:
     """Run ``stages`` in chunks of ``every`` steps until ``energy()`` [J] (read after each
     chunk) is at most ``ke_fraction`` of its peak so far, or ``steps`` steps in all, or an
     interruption; then hand the end state to the writers (:meth:`Stages.record_last`).
     The criterion is looked at after 10 chunks (a sample released at rest gains energy
-    first).  Returns whether the rest criterion was met."""
-    peak = 0.0
+    first).  Returns whether the rest criterion was met.
+
+    ``checkpoint``: saved every ``checkpoint.every`` steps and at an interruption, so the
+    run can go on from there (``peak``: the peak energy of the run so far, when it does;
+    the chunks then end on the same steps as if it had never stopped)."""
     at_rest = False
     while stages.steps < steps:
-        if not stages.run(min(every, steps - stages.steps)):
+        n = min(every - stages.steps % every, steps - stages.steps)
+        if not stages.run(n):
+            if checkpoint is not None:
+                checkpoint.save(stages, peak)     # the step reached, before its end record
             break
         ke = energy()
         peak = max(peak, ke)
         if stages.steps >= 10 * every and peak > 0 and ke <= ke_fraction * peak:
             at_rest = True
             break
+        if checkpoint is not None and checkpoint.due(stages.steps):
+            checkpoint.save(stages, peak)
     stages.record_last()
     return at_rest
+
+
+#: Arguments of a test that do not change its result (not part of a checkpoint's identity).
+NOT_IDENTITY = ("history", "progress", "resume", "checkpoint_every", "threads")
+
+
+def run_identity(arguments: dict) -> str:
+    """The JSON a checkpoint is tied to: a test's name and the arguments that decide its
+    result (``locals()`` at the test's start), laws by their repr."""
+    def plain(v):
+        return v if isinstance(v, (bool, int, float, str, type(None))) else repr(v)
+
+    return json.dumps({k: plain(v) for k, v in arguments.items() if k not in NOT_IDENTITY},
+                      sort_keys=True)
+
+
+@dataclass
+class Resumed:
+    """A run to rest restored from its checkpoint (:meth:`RestCheckpoint.load`)."""
+
+    state: object
+    steps: int
+    peak: float
+    info: dict
+
+
+class RestCheckpoint:
+    """Checkpoints of a run to rest (``history`` with the suffix ``.resume.h5``): the whole
+    state (:func:`engine.io.save`, a bit-identical restart point) with the recorded
+    curves, the step count, the non-converged steps and the peak energy, every ``every``
+    steps (rounded up to a multiple of ``record_every``; 0: only when interrupted) and when
+    Ctrl-C / SIGTERM stops the run.  The test called again with ``resume=True`` goes on from
+    it, and ends as the run that never stopped would have, bit for bit (the history's
+    records and frames after the checkpoint are cut and written again).  It is removed
+    when the run ends."""
+
+    SUFFIX = ".resume.h5"
+
+    def __init__(self, history: str, every: int, record_every: int, identity: str):
+        if (isinstance(every, bool) or not isinstance(every, (int, np.integer)) or every < 0):
+            raise ValueError(f"checkpoint_every must be an integer >= 0 [steps; 0: only when "
+                             f"interrupted], got {every!r}")
+        self.path = os.path.splitext(os.fspath(history))[0] + self.SUFFIX
+        self.every = -(-int(every) // record_every) * record_every
+        self.identity = identity
+        self.recorder = None
+
+    def due(self, steps: int) -> bool:
+        return bool(self.every) and steps % self.every == 0
+
+    def save(self, stages: Stages, peak: float) -> None:
+        from ..io import save
+
+        rec = self.recorder
+        extra = {"identity": self.identity, "steps": stages.steps, "peak": float(peak),
+                 "wall_time": stages.wall_time,
+                 "non_converged": np.asarray(stages.non_converged, np.int64),
+                 "written_step": -1 if rec.written_step is None else rec.written_step}
+        extra.update({f"rec_{k}": np.asarray(v, float) for k, v in rec.rows.items()})
+        save(self.path, stages.model, stages.state, extra)
+
+    def load(self, model, history: str) -> Resumed | None:
+        """The run restored from the checkpoint, or None (there is none; or it is another
+        run's, or unreadable, or its history is gone: a warning says so, and the run starts
+        afresh)."""
+        from ..io import FormatError, load, load_extra
+
+        if not os.path.exists(self.path):
+            return None
+        why = None
+        try:
+            info = load_extra(self.path)
+            if info.get("identity") != self.identity:
+                why = "it belongs to a run with other parameters"
+            elif not os.path.exists(history):
+                why = f"its history {history} is gone"
+            else:
+                _, state = load(self.path)
+                if state.position.shape != (model.n_bodies, 3):
+                    why = "its bodies are not this run's"
+        except (FormatError, OSError) as e:
+            why = f"it cannot be read ({e})"
+        if why is not None:
+            warnings.warn(f"not resuming from {self.path}: {why}; the run starts afresh",
+                          RuntimeWarning, stacklevel=3)
+            return None
+        return Resumed(state=state, steps=int(info["steps"]), peak=float(info["peak"]),
+                       info=info)
+
+    def restore(self, resumed: Resumed, rec: "Recorder", stages: Stages) -> None:
+        """Put the recorder's curves and the stages' counts back as they were saved."""
+        info = resumed.info
+        for k in rec.fns:
+            rec.rows[k] = [float(v) for v in np.atleast_1d(info[f"rec_{k}"])]
+            if rec.rows[k]:
+                rec.last[k] = rec.rows[k][-1]
+        w = int(info["written_step"])
+        rec.written_step = None if w < 0 else w
+        stages.steps = resumed.steps
+        stages.wall_time = float(info["wall_time"])
+        stages.non_converged = [int(v) for v in np.atleast_1d(info["non_converged"])]
+        if stages.bar is not None:
+            stages.bar.update(resumed.steps)
+
+    def remove(self) -> None:
+        if os.path.exists(self.path):
+            os.remove(self.path)
 
 
 def check_rest_run(steps, ke_fraction, record_every) -> None:
@@ -323,18 +446,25 @@ def wire_before_after(chains0, chains1, volume) -> dict:
 
 
 def rest_recording(model, state, ids, *, history, record_every, frames, progress, steps,
-                   desc):
+                   desc, checkpoint: RestCheckpoint | None = None,
+                   resumed: Resumed | None = None):
     """The writers and stages of a run to rest: a :class:`Recorder` of the time and the
     kinetic energy of ``ids`` [J], its HDF5 history, and the :class:`Stages` running both;
-    returns (recorder, history, stages)."""
+    returns (recorder, history, stages).  ``resumed``: the run goes on from that checkpoint
+    (``state`` is its state): the history is reopened there and the curves and counts
+    restored."""
     from ..analysis.energy import kinetic_energy
 
     rec = Recorder({"time": lambda m, s: s.time,
                     "kinetic_energy": lambda m, s: kinetic_energy(m, s, ids)}, record_every)
     hist = history_writer(history, rec, {"time": "s", "kinetic_energy": "J"}, record_every,
-                          frames)
-    return rec, hist, Stages(model, state, [rec, hist], progress=progress, total=steps,
-                             desc=desc)
+                          frames, resume_step=None if resumed is None else resumed.steps)
+    stages = Stages(model, state, [rec, hist], progress=progress, total=steps, desc=desc)
+    if checkpoint is not None:
+        checkpoint.recorder = rec
+        if resumed is not None:
+            checkpoint.restore(resumed, rec, stages)
+    return rec, hist, stages
 
 
 def interrupted_note(result) -> str:
@@ -385,7 +515,8 @@ class Recorder:
         return np.asarray(self.rows[k])
 
 
-def history_writer(path, recorder: Recorder, units: dict, every: int, frames: int):
+def history_writer(path, recorder: Recorder, units: dict, every: int, frames: int,
+                   resume_step: int | None = None):
     """An :class:`engine.io.History` recording the recorder's latest values as extras, and a
     particle frame (positions, velocities, contacts) every ``frames`` steps, rounded up to a
     multiple of ``every`` (0: no frames): a frame is written with a record, whose values the
@@ -401,7 +532,7 @@ def history_writer(path, recorder: Recorder, units: dict, every: int, frames: in
     extra = {k: ((lambda m, s, k=k: recorder.last[k]), units.get(k, "-")) for k in recorder.fns
              if k not in HISTORY_SCALARS}       # time, step ... are recorded by History itself
     h = History(path, trigger=lambda step: recorder.trigger(step), frames=frames, extra=extra,
-                flush=max(every, 1))
+                flush=max(every, 1), resume_step=resume_step)
     return h
 
 

@@ -13,9 +13,9 @@ from ..analysis.wire import wire_chains
 from ..prep import Box, Cylinder, paper_sample
 from ..prep.relax import kinetic_energy
 from ..scene import Scene
-from .common import (RestResult, check_rest_run, check_scale, deposit_laws, finish,
-                     rest_recording, rest_summary, run_to_rest, solver_choice,
-                     wire_before_after, wire_law_or_default)
+from .common import (RestCheckpoint, RestResult, check_bool, check_rest_run, check_scale,
+                     deposit_laws, finish, rest_recording, rest_summary, run_identity,
+                     run_to_rest, solver_choice, wire_before_after, wire_law_or_default)
 
 __all__ = ["gravity_deposit", "DepositResult", "SAMPLES"]
 
@@ -82,7 +82,8 @@ def gravity_deposit(scale: float = 0.05, *, sample: str = "slope", wire: bool = 
                     mu: float = 0.5, mu_wall: float = 0.5, mu_wire: float = 0.3,
                     record_every: int = 20, frames: int = 200,
                     max_nonconverged: float = 0.25, history: str = "out/gravity_deposit.h5",
-                    seed: int = 0, progress: bool = True) -> DepositResult:
+                    seed: int = 0, checkpoint_every: int = 0, resume: bool = False,
+                    progress: bool = True) -> DepositResult:
     """The deposit under gravity of §2.4 that turns a geometric sample into a granular
     medium, and its Fig. 7: "A deposit is then made under gravity to relax the sample and to
     obtain the force network. Consequently, the geometry is modified, namely wire
@@ -102,7 +103,13 @@ def gravity_deposit(scale: float = 0.05, *, sample: str = "slope", wire: bool = 
     Solver options as in :func:`slope_deposit`.
     ``neighbour_contact``: linked wire beads also touch like two spheres
     (:meth:`engine.Scene.add_wire`; default False: a slack link lets its two beads overlap).
+    ``checkpoint_every`` [steps] (default 0: only when interrupted): a checkpoint
+    (``history`` with the suffix ``.resume.h5``, :class:`engine.experiments.common.RestCheckpoint`)
+    that far apart and when Ctrl-C / SIGTERM stops the run; ``resume=True`` goes on from
+    one left by the same call (a run killed or stopped), bit for bit as if it had never
+    stopped, and starts afresh, with a warning, from a checkpoint of other parameters.
     """
+    identity = run_identity(dict(locals(), test="gravity_deposit"))
     scale = check_scale(scale)
     if sample not in SAMPLES:
         raise ValueError(f"sample must be one of {', '.join(map(repr, SAMPLES))}, got {sample!r}")
@@ -129,18 +136,27 @@ def gravity_deposit(scale: float = 0.05, *, sample: str = "slope", wire: bool = 
                               anderson=anderson, threads=threads, hot_sweeps=hot_sweeps)
     chains0 = wire_chains(model, state) if wire else []
     z0 = state.position[sand, 2].copy()
+    ckpt = RestCheckpoint(history, checkpoint_every, record_every, identity)
+    resumed = ckpt.load(model, history) if check_bool("resume", resume) else None
+    if resumed is not None:
+        state = resumed.state
 
     rec, hist, stages = rest_recording(model, state, sand, history=history,
                                        record_every=record_every, frames=frames,
-                                       progress=progress, steps=steps, desc="gravity deposit")
+                                       progress=progress, steps=steps, desc="gravity deposit",
+                                       checkpoint=ckpt, resumed=resumed)
     try:
-        rec.write(model, state)          # the geometric sample: step 0, record and frame
-        hist.write(model, state)
+        if resumed is None:
+            rec.write(model, state)      # the geometric sample: step 0, record and frame
+            hist.write(model, state)
         at_rest = run_to_rest(stages, steps, record_every, ke_fraction,
-                              lambda: kinetic_energy(model, state, sand))
+                              lambda: kinetic_energy(model, state, sand), checkpoint=ckpt,
+                              peak=0.0 if resumed is None else resumed.peak)
     finally:
         stages.close()
         hist.close()
+    if not stages.interrupted:
+        ckpt.remove()
     fz = float(wall_forces(model, state)[:, 2].sum())       # on the walls: < 0 (downward)
     weight = float(model.body_mass[ids].sum() * G)
     chains1 = wire_chains(model, state) if wire else []

@@ -13,9 +13,10 @@ from ..analysis.wire import wire_chains
 from ..prep import slope_sample
 from ..prep.relax import kinetic_energy
 from ..scene import Scene
-from .common import (RestResult, check_positive, check_rest_run, check_scale, deposit_laws,
-                     finish, rest_recording, rest_summary, run_to_rest, solver_choice,
-                     wire_before_after, wire_law_or_default)
+from .common import (RestCheckpoint, RestResult, check_bool, check_positive, check_rest_run,
+                     check_scale, deposit_laws, finish, rest_recording, rest_summary,
+                     run_identity, run_to_rest, solver_choice, wire_before_after,
+                     wire_law_or_default)
 
 __all__ = ["slope_deposit", "SlopeResult", "hex_floor"]
 
@@ -75,6 +76,7 @@ def slope_deposit(scale: float = 0.02, *, wire: bool = True, wire_density: float
                   mu_floor: float = 0.8, mu_wire: float = 0.3, record_every: int = 20,
                   frames: int = 200, max_nonconverged: float = 0.25,
                   history: str = "out/slope_deposit.h5", seed: int = 0,
+                  checkpoint_every: int = 0, resume: bool = False,
                   progress: bool = True) -> SlopeResult:
     """The slope deposit of §3.1.
 
@@ -95,7 +97,13 @@ def slope_deposit(scale: float = 0.02, *, wire: bool = True, wire_density: float
     (:attr:`engine.model.Options.relax`; > 1, over-relaxation, on one thread and unmixed).
     ``neighbour_contact``: linked wire beads also touch like two spheres
     (:meth:`engine.Scene.add_wire`; default False: a slack link lets its two beads overlap).
+    ``checkpoint_every`` [steps] (default 0: only when interrupted): a checkpoint
+    (``history`` with the suffix ``.resume.h5``, :class:`engine.experiments.common.RestCheckpoint`)
+    that far apart and when Ctrl-C / SIGTERM stops the run; ``resume=True`` goes on from
+    one left by the same call (a run killed or stopped), bit for bit as if it had never
+    stopped, and starts afresh, with a warning, from a checkpoint of other parameters.
     """
+    identity = run_identity(dict(locals(), test="slope_deposit"))
     scale = check_scale(scale)
     anderson, hot_sweeps = solver_choice(anderson, hot_sweeps)
     check_positive("rubber_radius", rubber_radius, "[m]")
@@ -118,20 +126,28 @@ def slope_deposit(scale: float = 0.02, *, wire: bool = True, wire_density: float
     model, state = sc.compile(dt=dt, theta=theta, tol=tol, max_iter=max_iter, relax=relax,
                               anderson=anderson, threads=threads, hot_sweeps=hot_sweeps)
     chains0 = wire_chains(model, state) if wire else []
+    ckpt = RestCheckpoint(history, checkpoint_every, record_every, identity)
+    resumed = ckpt.load(model, history) if check_bool("resume", resume) else None
+    if resumed is not None:
+        state = resumed.state
 
     rec, hist, stages = rest_recording(model, state, ids, history=history,
                                        record_every=record_every, frames=frames,
-                                       progress=progress, steps=steps, desc="slope deposit")
+                                       progress=progress, steps=steps, desc="slope deposit",
+                                       checkpoint=ckpt, resumed=resumed)
     def energy():
         # grains that rolled off the floor's edge fall for good: not in the criterion
         on_floor = np.asarray(sand)[state.position[sand, 2] >= 0.0]
         return kinetic_energy(model, state, on_floor)
 
     try:
-        at_rest = run_to_rest(stages, steps, record_every, ke_fraction, energy)
+        at_rest = run_to_rest(stages, steps, record_every, ke_fraction, energy,
+                              checkpoint=ckpt, peak=0.0 if resumed is None else resumed.peak)
     finally:
         stages.close()
         hist.close()
+    if not stages.interrupted:
+        ckpt.remove()
     profile_error = None
     try:
         prof = slope_profile(model, state, floor=rubber, center=(0.0, 0.0),

@@ -346,3 +346,147 @@ def test_neighbour_contact_keeps_the_beads_of_slack_links_apart(tmp_path):
         short[nc] = s.links.length / two_r
     assert short[False].min() < 0.5 and (short[False] < 0.999).mean() > 0.05
     assert short[True].min() > 0.999
+
+
+def _stop_at(monkeypatch, step, how):
+    """Every experiment run of this process stops at ``step``: Ctrl-C ("sigint") or a crash
+    ("crash": an exception out of the run, as a process killed there leaves its files)."""
+    import os
+    import signal
+
+    import engine.experiments.common as common
+    from engine.step import CallbackWriter
+
+    real = common.run
+
+    def stop(model, state):
+        if state.step == step:
+            if how == "sigint":
+                os.kill(os.getpid(), signal.SIGINT)
+            else:
+                raise RuntimeError("crash")
+
+    monkeypatch.setattr(common, "run", lambda model, state, n, writers=(), **k: real(
+        model, state, n, writers=[*writers, CallbackWriter(stop)], **k))
+
+
+@pytest.mark.parametrize("how", ["sigint", "crash"])
+def test_a_deposit_resumed_from_its_checkpoint_ends_as_if_it_never_stopped(how, monkeypatch,
+                                                                           tmp_path):
+    """The deposit in the mould (box sample, scale 0.02, about 780 steps) stopped at step 250
+    by Ctrl-C (checkpoint at 250) or by a crash (the checkpoint of step 200 left, the
+    history written to 250), then called again with ``resume=True``: the result and the
+    whole history are bit for bit the run's that never stopped."""
+    import os
+
+    import engine.experiments.common as common
+    from engine.io import load_extra, read_history
+
+    kw = dict(sample="box", progress=False, checkpoint_every=100)
+    ref = gravity_deposit(0.02, history=str(tmp_path / "a.h5"), **kw)
+    with monkeypatch.context() as mp:
+        _stop_at(mp, 250, how)
+        if how == "sigint":
+            assert gravity_deposit(0.02, history=str(tmp_path / "b.h5"), **kw
+                                   ).convergence["interrupted"]
+        else:
+            with pytest.raises(RuntimeError, match="crash"):
+                gravity_deposit(0.02, history=str(tmp_path / "b.h5"), **kw)
+    ck = tmp_path / "b.resume.h5"
+    assert load_extra(ck)["steps"] == (250 if how == "sigint" else 200)
+    # Ctrl-C records the end state; the crash left the records up to step 240 (beyond
+    # the checkpoint: they are cut and written again)
+    assert read_history(tmp_path / "b.h5").step[-1] == (250 if how == "sigint" else 240)
+    r = gravity_deposit(0.02, history=str(tmp_path / "b.h5"), resume=True, **kw)
+    assert not ck.exists() and common.RestCheckpoint.SUFFIX == ".resume.h5"
+    assert r.convergence["steps"] == ref.convergence["steps"] and r.at_rest
+    assert r.convergence["non_converged"] == ref.convergence["non_converged"]
+    np.testing.assert_array_equal(r.kinetic_energy, ref.kinetic_energy)
+    assert (r.settlement, r.wire_after.tortuosity) == (ref.settlement, ref.wire_after.tortuosity)
+    a, b = read_history(ref.history), read_history(r.history)
+    for name in ("step", "time", "kinetic_energy", "iterations", "residual", "wall_force",
+                 "frame_step", "position", "velocity", "link_tension"):
+        np.testing.assert_array_equal(getattr(b, name), getattr(a, name), err_msg=name)
+    assert os.path.getsize(r.history) > 0
+
+
+def test_a_checkpoint_of_other_parameters_is_not_resumed(monkeypatch, tmp_path):
+    """A checkpoint left by a call with another friction is not this run's: the run starts
+    afresh and says so, and ends like a run that never had a checkpoint."""
+    kw = dict(sample="box", progress=False, checkpoint_every=100)
+    with monkeypatch.context() as mp:
+        _stop_at(mp, 150, "sigint")
+        gravity_deposit(0.02, history=str(tmp_path / "b.h5"), **dict(kw, mu=0.4))
+    assert (tmp_path / "b.resume.h5").exists()
+    with pytest.warns(RuntimeWarning, match="belongs to a run with other parameters"):
+        r = gravity_deposit(0.02, history=str(tmp_path / "b.h5"), resume=True, **kw)
+    ref = gravity_deposit(0.02, history=str(tmp_path / "a.h5"), **kw)
+    np.testing.assert_array_equal(r.kinetic_energy, ref.kinetic_energy)
+    with pytest.raises(ValueError, match="checkpoint_every must be an integer >= 0"):
+        gravity_deposit(0.02, history=str(tmp_path / "c.h5"), sample="box", checkpoint_every=-1)
+    with pytest.raises(ValueError, match="resume must be True or False"):
+        gravity_deposit(0.02, history=str(tmp_path / "c.h5"), sample="box", resume="yes")
+
+
+def test_a_slope_deposit_resumes_bit_for_bit(monkeypatch, tmp_path):
+    """The slope deposit's own loop (its floor, its energy of the grains on the floor) goes
+    on from a Ctrl-C at step 130 as if it had never stopped (400 steps, scale 0.02)."""
+    kw = dict(progress=False, steps=400, record_every=20, frames=100)
+    ref = slope_deposit(0.02, history=str(tmp_path / "a.h5"), **kw)
+    with monkeypatch.context() as mp:
+        _stop_at(mp, 130, "sigint")
+        with pytest.warns(RuntimeWarning, match="no slope profile after 130 steps"):
+            slope_deposit(0.02, history=str(tmp_path / "b.h5"), **kw)
+    r = slope_deposit(0.02, history=str(tmp_path / "b.h5"), resume=True, **kw)
+    assert r.convergence["steps"] == ref.convergence["steps"] == 400
+    np.testing.assert_array_equal(r.kinetic_energy, ref.kinetic_energy)
+    np.testing.assert_array_equal(read_history(r.history).position,
+                                  read_history(ref.history).position)
+
+
+_KILLED_CHILD = """
+import sys
+from engine.experiments import gravity_deposit
+gravity_deposit(0.02, sample="box", progress=False, checkpoint_every=100, history=sys.argv[1])
+"""
+
+
+def test_a_deposit_killed_with_sigkill_resumes_bit_for_bit(tmp_path):
+    """The real end of a session: the process killed (SIGKILL) past its checkpoint of step
+    300, its history left open by its SWMR writer; the run resumed in this process ends as
+    the run that never stopped."""
+    import os
+    import signal
+    import subprocess
+    import sys
+    import time
+    from pathlib import Path
+
+    from engine.io import load_extra
+
+    root = Path(__file__).resolve().parents[2]
+    hist, ck = tmp_path / "b.h5", tmp_path / "b.resume.h5"
+    p = subprocess.Popen([sys.executable, "-c", _KILLED_CHILD, str(hist)], cwd=root,
+                         env=dict(os.environ, PYTHONPATH=str(root)))
+    try:
+        t0 = time.monotonic()
+        while time.monotonic() - t0 < 120 and p.poll() is None:
+            try:
+                if ck.exists() and load_extra(ck)["steps"] >= 300:
+                    break
+            except (OSError, ValueError):         # the checkpoint being replaced
+                pass
+            time.sleep(0.02)
+        p.send_signal(signal.SIGKILL)
+        p.wait(timeout=60)
+    finally:
+        if p.poll() is None:
+            p.kill()
+    assert p.returncode == -signal.SIGKILL, "the run ended before it could be killed"
+    kw = dict(sample="box", progress=False, checkpoint_every=100)
+    r = gravity_deposit(0.02, history=str(hist), resume=True, **kw)
+    ref = gravity_deposit(0.02, history=str(tmp_path / "a.h5"), **kw)
+    a, b = read_history(ref.history), read_history(r.history)
+    for name in ("step", "kinetic_energy", "frame_step", "position", "link_tension"):
+        np.testing.assert_array_equal(getattr(b, name), getattr(a, name), err_msg=name)
+    assert r.convergence["steps"] == ref.convergence["steps"] and not ck.exists()

@@ -468,3 +468,33 @@ def test_file_content_tells_a_checkpoint_from_a_history(tmp_path):
         io.file_content(tmp_path / "x.h5")
     with pytest.raises(FileNotFoundError):
         io.file_content(tmp_path / "missing.h5")
+
+
+def test_checkpoint_extra_arrays_and_text_round_trip(tmp_path):
+    model, state = scene()
+    p = tmp_path / "c.h5"
+    io.save(p, model, state, extra={"steps": 250, "rows": np.arange(3.0), "who": "deposit"})
+    e = io.load_extra(p)
+    assert e["steps"] == 250 and e["who"] == "deposit"
+    np.testing.assert_array_equal(e["rows"], [0.0, 1.0, 2.0])
+    assert _same(io.load(p)[1].position, state.position)
+    with pytest.raises(ValueError, match=r"extra\['bad'\]: numbers or a str"):
+        io.save(tmp_path / "d.h5", model, state, extra={"bad": np.array([object()])})
+    io.save(tmp_path / "e.h5", model, state)
+    assert io.load_extra(tmp_path / "e.h5") == {}
+
+
+def test_history_resumed_at_a_step_cuts_what_follows_it(tmp_path):
+    """A history reopened at step 30 (records every 10, frames every 20) keeps the records
+    of steps <= 30 on the grid and the frames <= 30, drops the rest, and goes on."""
+    model, state = scene()
+    p = tmp_path / "h.h5"
+    with io.History(p, trigger=10, frames=20) as h:
+        run(model, state, 50, writers=[h], progress=False)
+        h.write_final(model, state)              # (on the grid already: nothing more)
+    with io.History(p, trigger=10, frames=20, resume_step=30) as h:
+        assert (h.n_records, h.n_frames) == (3, 1)
+    d = io.read_history(p)
+    assert d.step.tolist() == [10, 20, 30] and d.frame_step.tolist() == [20]
+    with pytest.raises(FileNotFoundError, match="no history to resume"):
+        io.History(tmp_path / "none.h5", resume_step=3)

@@ -381,15 +381,25 @@ def test_runs_starts_only_the_runs_named(tmp_path):
                         render=False, progress=False)
 
 
-def test_an_interrupted_paper_run_is_not_recorded_as_done(tmp_path, monkeypatch):
+def test_an_interrupted_paper_run_is_not_recorded_as_done_and_resumes(tmp_path, monkeypatch):
     """``paper_case`` (what ``nscd paper`` runs) refuses to turn an interrupted run into
-    table values: the sweep then leaves it pending."""
+    table values (the sweep then leaves it pending), and the case run again resumes."""
     import workbench.paper as wp
     from engine.sweep import CaseInterrupted
     from tests.engine.test_sweep import _interrupt_at_step_30
 
-    _interrupt_at_step_30(monkeypatch)
     (case,) = [c for c in cases_for(SCALES["tiny"], only="fig7") if c["name"].endswith("0")]
-    with pytest.raises(CaseInterrupted, match="interrupted after 30 steps"):
-        wp.paper_case(**case, runs_dir=str(tmp_path))
-    assert not (tmp_path / f"{case['name']}.curves.h5").exists()
+    with monkeypatch.context() as mp:
+        _interrupt_at_step_30(mp)
+        with pytest.raises(CaseInterrupted, match="interrupted after 30 steps"):
+            wp.paper_case(**case, runs_dir=str(tmp_path / "a"))
+    assert not (tmp_path / "a" / f"{case['name']}.curves.h5").exists()
+    # the case run again goes on from the checkpoint the stop left, to the same numbers
+    ck = tmp_path / "a" / f"{case['name']}.resume.h5"
+    assert ck.exists()
+    again = wp.paper_case(**case, runs_dir=str(tmp_path / "a"))
+    ref = wp.paper_case(**case, runs_dir=str(tmp_path / "b"))
+    assert not ck.exists()
+    for paths in (again, ref):            # in their own folders
+        paths.pop("history"), paths.pop("curves")
+    assert again == ref

@@ -29,6 +29,7 @@ from __future__ import annotations
 import dataclasses
 import json
 import os
+import uuid
 from dataclasses import dataclass, field
 from typing import Callable
 
@@ -603,6 +604,10 @@ class History:
             return
         self._file = h5py.File(self.path, "w", libver=LIBVER)
         _root_attrs(self._file, "history")
+        #: a random id of this history (kept when it is resumed): what a checkpoint of the
+        #: run checks it goes on with (``engine.experiments.common.RestCheckpoint``)
+        self.run_id = uuid.uuid4().hex
+        self._file.attrs["run_id"] = self.run_id
 
     # writer protocol ------------------------------------------------------------------------
     def trigger(self, step: int) -> bool:
@@ -680,6 +685,10 @@ class History:
         atomically): HDF5 refuses to reopen for writing a file whose SWMR writer was killed."""
         if not os.path.exists(self.path):
             raise FileNotFoundError(f"{self.path}: no history to resume")
+        import glob
+
+        for old in glob.glob(glob.escape(self.path) + ".resume[0-9]*"):   # a killed resume's
+            os.remove(old)
         tmp = f"{self.path}.resume{os.getpid()}"
         src = _open_read(self.path)
         try:
@@ -693,6 +702,9 @@ class History:
             with h5py.File(tmp, "w", libver=LIBVER) as dst:
                 for k, v in src.attrs.items():
                     dst.attrs[k] = v
+                rid = src.attrs.get("run_id")
+                self.run_id = rid.decode() if isinstance(rid, bytes) else (
+                    str(rid) if rid is not None else None)
                 for k in src:
                     src.copy(src[k], dst, name=k)
                 g, fg = dst["records"], dst["frames"]
@@ -728,10 +740,14 @@ class History:
             if os.path.exists(tmp):
                 os.remove(tmp)
         self._file = h5py.File(self.path, "a", libver=LIBVER)
+        try:
+            self._file.swmr_mode = True
+        except BaseException:
+            self._file.close()
+            raise
         self._buf = {c: [] for c in cols}
         self.n_records, self.n_frames = n, m
         self._recorded_step, self._framed_step = last
-        self._file.swmr_mode = True
         self._ready = True
 
     def _setup(self, model, state) -> None:

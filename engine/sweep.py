@@ -148,7 +148,10 @@ def scalars_of(result) -> dict:
     final values, convergence, H (Table 2) ..."""
     c = result.convergence or {}
     out = dict(steps=c.get("steps"), non_converged=c.get("non_converged"),
-               non_converged_share=c.get("share"), history=getattr(result, "history", None))
+               non_converged_share=c.get("share"), history=getattr(result, "history", None),
+               steps_wall_time=c.get("wall_time"))
+    if c.get("resumed_from"):                  # a run resumed from checkpoints of these steps
+        out["resumed_from"] = ",".join(map(str, c["resumed_from"]))
     if hasattr(result, "axial_strain"):                       # triaxial tests
         n = len(result.time)
         last = (lambda a: float(np.asarray(a)[-1]) if n else float("nan"))
@@ -203,7 +206,10 @@ def _paper_test(name):
         kw.setdefault("history", _history_path(key_params, {"history_dir": history_dir}, name))
         kw.setdefault("progress", False)
         if "resume" in inspect.signature(fn).parameters:
-            kw.setdefault("resume", True)     # a case stopped or killed goes on from there
+            # the deposits: a case stopped or killed goes on from its last checkpoint (on a
+            # Dask worker, which cannot catch Ctrl-C, the periodic one)
+            kw.setdefault("resume", True)
+            kw.setdefault("checkpoint_every", 60)
         return scalars_of(not_interrupted(fn(**kw), name, params))
 
     experiment.__name__ = experiment.__qualname__ = name

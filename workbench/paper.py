@@ -1440,6 +1440,9 @@ def _run_lines(scale, rows, pvds, out) -> list:
         share = res.get("non_converged_share")
         el = r.get("elapsed")
         status = r["status"] + (" (reused)" if r.get("skipped") else "")
+        if res.get("resumed_from"):          # run in parts: the steps' time of all of them
+            status += f" (resumed at step {res['resumed_from'].replace(',', ', ')})"
+            el = res.get("steps_wall_time", el)
         if r["status"] == "failed":
             status += ": " + (r["errors"][-1].splitlines()[0] if r["errors"] else "")
         L.append(f"| {name} | {status} | {r['params'].get('seed')} | "

@@ -185,6 +185,7 @@ class Stages:
         self.steps = 0
         self.wall_time = 0.0  # [s] spent in the steps (writers included), not in the set-up
         self.non_converged = []
+        self.resumed_from = []      # the steps a resumed run went on from (RestCheckpoint)
         self.interrupted = False
         self.bar = None
         if progress:
@@ -241,11 +242,13 @@ class Stages:
         share = len(self.non_converged) / self.steps if self.steps else 0.0
         return dict(steps=self.steps, non_converged=len(self.non_converged), share=share,
                     limit=limit, interrupted=self.interrupted, wall_time=self.wall_time,
+                    resumed_from=list(self.resumed_from),
                     non_converged_steps=self.non_converged[:1000])
 
 
 def run_to_rest(stages: Stages, steps: int, every: int, ke_fraction: float, energy,
-                checkpoint: "RestCheckpoint | None" = None, peak: float = 0.0) -> bool:
+                checkpoint: "RestCheckpoint | None" = None,
+                resumed: "Resumed | None" = None) -> bool:
     """Run ``stages`` in chunks of ``every`` steps until ``energy()`` [J] (read after each
     chunk) is at most ``ke_fraction`` of its peak so far, or ``steps`` steps in all, or an
     interruption; then hand the end state to the writers (:meth:`Stages.record_last`).
@@ -253,34 +256,40 @@ def run_to_rest(stages: Stages, steps: int, every: int, ke_fraction: float, ener
     first).  Returns whether the rest criterion was met.
 
     ``checkpoint``: saved every ``checkpoint.every`` steps and at an interruption, so the
-    run can go on from there (``peak``: the peak energy of the run so far, when it does;
-    the chunks then end on the same steps as if it had never stopped)."""
-    at_rest = False
-    while stages.steps < steps:
-        n = min(every - stages.steps % every, steps - stages.steps)
-        if not stages.run(n):
+    run can go on from there; ``resumed``: the run goes on from such a checkpoint (its
+    peak energy, whether it was at rest).  The chunks end on the same steps and the
+    criterion is looked at on the same ones as if the run had never stopped: a stop in the
+    last step of a chunk looks at it before saving."""
+    peak = 0.0 if resumed is None else resumed.peak
+    at_rest = False if resumed is None else resumed.at_rest
+    while not at_rest and stages.steps < steps:
+        ran = stages.run(min(every - stages.steps % every, steps - stages.steps))
+        if stages.steps % every == 0 or stages.steps == steps:       # a chunk's end
+            ke = energy()
+            peak = max(peak, ke)
+            at_rest = stages.steps >= 10 * every and peak > 0 and ke <= ke_fraction * peak
+        if not ran:
             if checkpoint is not None:
-                checkpoint.save(stages, peak)     # the step reached, before its end record
+                checkpoint.save(stages, peak, at_rest)   # the step reached, before its end record
             break
-        ke = energy()
-        peak = max(peak, ke)
-        if stages.steps >= 10 * every and peak > 0 and ke <= ke_fraction * peak:
-            at_rest = True
-            break
-        if checkpoint is not None and checkpoint.due(stages.steps):
-            checkpoint.save(stages, peak)
+        if not at_rest and checkpoint is not None and checkpoint.due(stages.steps):
+            checkpoint.save(stages, peak, at_rest)
     stages.record_last()
     return at_rest
 
 
-#: Arguments of a test that do not change its result (not part of a checkpoint's identity).
+#: Arguments of a test that do not change its result (not part of a checkpoint's identity;
+#: the thread count is checked on the model, :meth:`RestCheckpoint.load`).
 NOT_IDENTITY = ("history", "progress", "resume", "checkpoint_every", "threads")
 
 
 def run_identity(arguments: dict) -> str:
     """The JSON a checkpoint is tied to: a test's name and the arguments that decide its
-    result (``locals()`` at the test's start), laws by their repr."""
+    result (``locals()`` at the test's start), numpy scalars as numbers, laws by their
+    repr."""
     def plain(v):
+        if isinstance(v, np.generic):
+            v = v.item()
         return v if isinstance(v, (bool, int, float, str, type(None))) else repr(v)
 
     return json.dumps({k: plain(v) for k, v in arguments.items() if k not in NOT_IDENTITY},
@@ -294,18 +303,42 @@ class Resumed:
     state: object
     steps: int
     peak: float
+    at_rest: bool
     info: dict
+
+
+def _model_difference(a, b) -> str | None:
+    """None if the two models are the same (arrays, options, laws), else what differs."""
+    import dataclasses
+
+    from ..model import Model
+
+    for f in dataclasses.fields(Model):
+        x, y = getattr(a, f.name), getattr(b, f.name)
+        if isinstance(x, np.ndarray):
+            if not (isinstance(y, np.ndarray) and x.shape == y.shape
+                    and np.array_equal(x, y, equal_nan=x.dtype.kind == "f")):
+                return f"its model's {f.name}"
+    oa, ob = a.options.model_dump(), b.options.model_dump()
+    diff = sorted(k for k in oa if oa[k] != ob.get(k))
+    if diff:
+        return "its solver options (" + ", ".join(f"{k} {oa[k]!r}, now {ob.get(k)!r}"
+                                                  for k in diff) + ")"
+    if ([(type(x).__name__, x.model_dump()) for x in a.laws]
+            != [(type(x).__name__, x.model_dump()) for x in b.laws]):
+        return "its contact laws"
+    return None
 
 
 class RestCheckpoint:
     """Checkpoints of a run to rest (``history`` with the suffix ``.resume.h5``): the whole
     state (:func:`engine.io.save`, a bit-identical restart point) with the recorded
-    curves, the step count, the non-converged steps and the peak energy, every ``every``
-    steps (rounded up to a multiple of ``record_every``; 0: only when interrupted) and when
-    Ctrl-C / SIGTERM stops the run.  The test called again with ``resume=True`` goes on from
-    it, and ends as the run that never stopped would have, bit for bit (the history's
-    records and frames after the checkpoint are cut and written again).  It is removed
-    when the run ends."""
+    curves, the step count, the non-converged steps, the peak energy and the history's
+    run id, every ``every`` steps (rounded up to a multiple of ``record_every``; 0: only
+    when interrupted) and when Ctrl-C / SIGTERM stops the run.  The test called again with
+    ``resume=True`` goes on from it, and ends as the run that never stopped would have, bit
+    for bit (the history's records and frames after the checkpoint are cut and written
+    again).  It is removed when the run ends, and when a run starts afresh."""
 
     SUFFIX = ".resume.h5"
 
@@ -317,26 +350,30 @@ class RestCheckpoint:
         self.every = -(-int(every) // record_every) * record_every
         self.identity = identity
         self.recorder = None
+        self.history = None         # the History writer (its run id)
 
     def due(self, steps: int) -> bool:
         return bool(self.every) and steps % self.every == 0
 
-    def save(self, stages: Stages, peak: float) -> None:
+    def save(self, stages: Stages, peak: float, at_rest: bool = False) -> None:
         from ..io import save
 
         rec = self.recorder
         extra = {"identity": self.identity, "steps": stages.steps, "peak": float(peak),
-                 "wall_time": stages.wall_time,
+                 "at_rest": int(bool(at_rest)), "wall_time": stages.wall_time,
+                 "run_id": self.history.run_id or "",
+                 "resumed_from": np.asarray(stages.resumed_from, np.int64),
                  "non_converged": np.asarray(stages.non_converged, np.int64),
                  "written_step": -1 if rec.written_step is None else rec.written_step}
         extra.update({f"rec_{k}": np.asarray(v, float) for k, v in rec.rows.items()})
         save(self.path, stages.model, stages.state, extra)
 
     def load(self, model, history: str) -> Resumed | None:
-        """The run restored from the checkpoint, or None (there is none; or it is another
-        run's, or unreadable, or its history is gone: a warning says so, and the run starts
-        afresh)."""
-        from ..io import FormatError, load, load_extra
+        """The run restored from the checkpoint, or None: there is none, or it cannot be
+        used (another run's parameters, model or history; unreadable; its history gone or
+        not reopenable): a warning says why, the checkpoint is removed and the run starts
+        afresh."""
+        from ..io import load, load_extra, read_history
 
         if not os.path.exists(self.path):
             return None
@@ -348,17 +385,24 @@ class RestCheckpoint:
             elif not os.path.exists(history):
                 why = f"its history {history} is gone"
             else:
-                _, state = load(self.path)
-                if state.position.shape != (model.n_bodies, 3):
-                    why = "its bodies are not this run's"
-        except (FormatError, OSError) as e:
+                h = read_history(history, frames=False)
+                ckpt_model, state = load(self.path)
+                diff = _model_difference(ckpt_model, model)
+                if diff is not None:
+                    why = f"{diff} differs from this run's (another engine version?)"
+                elif (_history_run_id(history) or "") != info.get("run_id", ""):
+                    why = f"its history {history} is another run's"
+                elif h.n_records and h.step[-1] < int(info["written_step"]):
+                    why = f"its history {history} stops before it"
+        except (ValueError, OSError, KeyError) as e:       # FormatError is a ValueError
             why = f"it cannot be read ({e})"
         if why is not None:
             warnings.warn(f"not resuming from {self.path}: {why}; the run starts afresh",
                           RuntimeWarning, stacklevel=3)
+            self.remove()
             return None
         return Resumed(state=state, steps=int(info["steps"]), peak=float(info["peak"]),
-                       info=info)
+                       at_rest=bool(info.get("at_rest", 0)), info=info)
 
     def restore(self, resumed: Resumed, rec: "Recorder", stages: Stages) -> None:
         """Put the recorder's curves and the stages' counts back as they were saved."""
@@ -372,12 +416,25 @@ class RestCheckpoint:
         stages.steps = resumed.steps
         stages.wall_time = float(info["wall_time"])
         stages.non_converged = [int(v) for v in np.atleast_1d(info["non_converged"])]
+        stages.resumed_from = [int(v) for v in np.atleast_1d(info.get("resumed_from", []))]
+        stages.resumed_from.append(resumed.steps)
         if stages.bar is not None:
             stages.bar.update(resumed.steps)
 
     def remove(self) -> None:
-        if os.path.exists(self.path):
-            os.remove(self.path)
+        import glob
+
+        for p in [self.path, *glob.glob(glob.escape(self.path) + ".tmp*")]:
+            if os.path.exists(p):
+                os.remove(p)
+
+
+def _history_run_id(path) -> str | None:
+    import h5py
+
+    with h5py.File(path, "r", swmr=True) as f:
+        v = f.attrs.get("run_id")
+    return v.decode() if isinstance(v, bytes) else (None if v is None else str(v))
 
 
 def check_rest_run(steps, ke_fraction, record_every) -> None:
@@ -457,13 +514,19 @@ def rest_recording(model, state, ids, *, history, record_every, frames, progress
 
     rec = Recorder({"time": lambda m, s: s.time,
                     "kinetic_energy": lambda m, s: kinetic_energy(m, s, ids)}, record_every)
+    if checkpoint is not None and resumed is None:
+        checkpoint.remove()             # a fresh start: an old checkpoint is not of this run
     hist = history_writer(history, rec, {"time": "s", "kinetic_energy": "J"}, record_every,
                           frames, resume_step=None if resumed is None else resumed.steps)
-    stages = Stages(model, state, [rec, hist], progress=progress, total=steps, desc=desc)
-    if checkpoint is not None:
-        checkpoint.recorder = rec
-        if resumed is not None:
-            checkpoint.restore(resumed, rec, stages)
+    try:
+        stages = Stages(model, state, [rec, hist], progress=progress, total=steps, desc=desc)
+        if checkpoint is not None:
+            checkpoint.recorder, checkpoint.history = rec, hist
+            if resumed is not None:
+                checkpoint.restore(resumed, rec, stages)
+    except BaseException:
+        hist.close()
+        raise
     return rec, hist, stages
 
 

@@ -119,6 +119,8 @@ def gravity_deposit(scale: float = 0.05, *, sample: str = "slope", wire: bool = 
                 or not 0 <= v < math.inf):
             raise ValueError(f"{name} must be a number >= 0 (Coulomb friction), got {v!r}")
     check_rest_run(steps, ke_fraction, record_every)
+    ckpt = RestCheckpoint(history, checkpoint_every, record_every, identity)
+    resume = check_bool("resume", resume)
     kw = dict(wire=wire, seed=seed)
     if wire_density is not None:
         kw["wire_density"] = wire_density
@@ -136,8 +138,7 @@ def gravity_deposit(scale: float = 0.05, *, sample: str = "slope", wire: bool = 
                               anderson=anderson, threads=threads, hot_sweeps=hot_sweeps)
     chains0 = wire_chains(model, state) if wire else []
     z0 = state.position[sand, 2].copy()
-    ckpt = RestCheckpoint(history, checkpoint_every, record_every, identity)
-    resumed = ckpt.load(model, history) if check_bool("resume", resume) else None
+    resumed = ckpt.load(model, history) if resume else None
     if resumed is not None:
         state = resumed.state
 
@@ -151,7 +152,7 @@ def gravity_deposit(scale: float = 0.05, *, sample: str = "slope", wire: bool = 
             hist.write(model, state)
         at_rest = run_to_rest(stages, steps, record_every, ke_fraction,
                               lambda: kinetic_energy(model, state, sand), checkpoint=ckpt,
-                              peak=0.0 if resumed is None else resumed.peak)
+                              resumed=resumed)
     finally:
         stages.close()
         hist.close()

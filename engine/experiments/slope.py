@@ -109,6 +109,8 @@ def slope_deposit(scale: float = 0.02, *, wire: bool = True, wire_density: float
     check_positive("rubber_radius", rubber_radius, "[m]")
     check_positive("floor_extent", floor_extent, "[-]")
     check_rest_run(steps, ke_fraction, record_every)
+    ckpt = RestCheckpoint(history, checkpoint_every, record_every, identity)
+    resume = check_bool("resume", resume)
     law = wire_law_or_default(wire_law) if wire else None
     sample = slope_sample(scale, wire=wire, wire_density=wire_density, seed=seed)
     R = sample.container.radius
@@ -126,8 +128,7 @@ def slope_deposit(scale: float = 0.02, *, wire: bool = True, wire_density: float
     model, state = sc.compile(dt=dt, theta=theta, tol=tol, max_iter=max_iter, relax=relax,
                               anderson=anderson, threads=threads, hot_sweeps=hot_sweeps)
     chains0 = wire_chains(model, state) if wire else []
-    ckpt = RestCheckpoint(history, checkpoint_every, record_every, identity)
-    resumed = ckpt.load(model, history) if check_bool("resume", resume) else None
+    resumed = ckpt.load(model, history) if resume else None
     if resumed is not None:
         state = resumed.state
 
@@ -142,7 +143,7 @@ def slope_deposit(scale: float = 0.02, *, wire: bool = True, wire_density: float
 
     try:
         at_rest = run_to_rest(stages, steps, record_every, ke_fraction, energy,
-                              checkpoint=ckpt, peak=0.0 if resumed is None else resumed.peak)
+                              checkpoint=ckpt, resumed=resumed)
     finally:
         stages.close()
         hist.close()

@@ -370,22 +370,24 @@ def _stop_at(monkeypatch, step, how):
         model, state, n, writers=[*writers, CallbackWriter(stop)], **k))
 
 
-@pytest.mark.parametrize("how", ["sigint", "crash"])
-def test_a_deposit_resumed_from_its_checkpoint_ends_as_if_it_never_stopped(how, monkeypatch,
+@pytest.mark.parametrize("how, at", [("sigint", 250), ("crash", 250), ("sigint", 780)])
+def test_a_deposit_resumed_from_its_checkpoint_ends_as_if_it_never_stopped(how, at,
+                                                                           monkeypatch,
                                                                            tmp_path):
-    """The deposit in the mould (box sample, scale 0.02, about 780 steps) stopped at step 250
-    by Ctrl-C (checkpoint at 250) or by a crash (the checkpoint of step 200 left, the
-    history written to 250), then called again with ``resume=True``: the result and the
-    whole history are bit for bit the run's that never stopped."""
-    import os
+    """The deposit in the mould (box sample, scale 0.02, at rest after 780 steps) stopped at
+    step 250 by Ctrl-C (checkpoint at 250) or by a crash (the checkpoint of step 200 left,
+    the history written to 240), or by Ctrl-C in step 780, the last of a chunk and the one
+    it comes to rest on; then called again with ``resume=True``: the result and the whole
+    history are bit for bit the run's that never stopped."""
 
     import engine.experiments.common as common
     from engine.io import load_extra, read_history
 
     kw = dict(sample="box", progress=False, checkpoint_every=100)
     ref = gravity_deposit(0.02, history=str(tmp_path / "a.h5"), **kw)
+    assert ref.convergence["steps"] == 780
     with monkeypatch.context() as mp:
-        _stop_at(mp, 250, how)
+        _stop_at(mp, at, how)
         if how == "sigint":
             assert gravity_deposit(0.02, history=str(tmp_path / "b.h5"), **kw
                                    ).convergence["interrupted"]
@@ -393,10 +395,10 @@ def test_a_deposit_resumed_from_its_checkpoint_ends_as_if_it_never_stopped(how, 
             with pytest.raises(RuntimeError, match="crash"):
                 gravity_deposit(0.02, history=str(tmp_path / "b.h5"), **kw)
     ck = tmp_path / "b.resume.h5"
-    assert load_extra(ck)["steps"] == (250 if how == "sigint" else 200)
+    assert load_extra(ck)["steps"] == (at if how == "sigint" else 200)
     # Ctrl-C records the end state; the crash left the records up to step 240 (beyond
     # the checkpoint: they are cut and written again)
-    assert read_history(tmp_path / "b.h5").step[-1] == (250 if how == "sigint" else 240)
+    assert read_history(tmp_path / "b.h5").step[-1] == (at if how == "sigint" else 240)
     r = gravity_deposit(0.02, history=str(tmp_path / "b.h5"), resume=True, **kw)
     assert not ck.exists() and common.RestCheckpoint.SUFFIX == ".resume.h5"
     assert r.convergence["steps"] == ref.convergence["steps"] and r.at_rest
@@ -407,21 +409,39 @@ def test_a_deposit_resumed_from_its_checkpoint_ends_as_if_it_never_stopped(how, 
     for name in ("step", "time", "kinetic_energy", "iterations", "residual", "wall_force",
                  "frame_step", "position", "velocity", "link_tension"):
         np.testing.assert_array_equal(getattr(b, name), getattr(a, name), err_msg=name)
-    assert os.path.getsize(r.history) > 0
+    assert r.convergence["resumed_from"] == [at if how == "sigint" else 200]
 
 
-def test_a_checkpoint_of_other_parameters_is_not_resumed(monkeypatch, tmp_path):
-    """A checkpoint left by a call with another friction is not this run's: the run starts
-    afresh and says so, and ends like a run that never had a checkpoint."""
+def test_a_checkpoint_that_is_not_this_runs_is_not_resumed(monkeypatch, tmp_path):
+    """A checkpoint left by a call with another friction, or by one on 2 NLGS threads, is
+    not this run's: the run says so, removes it, and ends like a run that never had one.
+    A fresh start removes an old checkpoint first, so that a later resume cannot go on
+    with the history the fresh run rewrote."""
     kw = dict(sample="box", progress=False, checkpoint_every=100)
+    ref = gravity_deposit(0.02, history=str(tmp_path / "a.h5"), **kw)
+    ck = tmp_path / "b.resume.h5"
+    for other, says in ((dict(mu=0.4), "belongs to a run with other parameters"),
+                        (dict(threads=2), r"solver options \(threads 2, now 1\)")):
+        with monkeypatch.context() as mp:
+            _stop_at(mp, 150, "sigint")
+            gravity_deposit(0.02, history=str(tmp_path / "b.h5"), **dict(kw, **other))
+        assert ck.exists()
+        with pytest.warns(RuntimeWarning, match=says):
+            r = gravity_deposit(0.02, history=str(tmp_path / "b.h5"), resume=True, **kw)
+        np.testing.assert_array_equal(r.kinetic_energy, ref.kinetic_energy)
+        assert not ck.exists() and r.convergence["resumed_from"] == []
+    # stopped at 150 (its checkpoint), then a fresh run of another μ crashes at step 90
     with monkeypatch.context() as mp:
         _stop_at(mp, 150, "sigint")
-        gravity_deposit(0.02, history=str(tmp_path / "b.h5"), **dict(kw, mu=0.4))
-    assert (tmp_path / "b.resume.h5").exists()
-    with pytest.warns(RuntimeWarning, match="belongs to a run with other parameters"):
-        r = gravity_deposit(0.02, history=str(tmp_path / "b.h5"), resume=True, **kw)
-    ref = gravity_deposit(0.02, history=str(tmp_path / "a.h5"), **kw)
-    np.testing.assert_array_equal(r.kinetic_energy, ref.kinetic_energy)
+        gravity_deposit(0.02, history=str(tmp_path / "b.h5"), **kw)
+    with monkeypatch.context() as mp:
+        _stop_at(mp, 90, "crash")
+        with pytest.raises(RuntimeError, match="crash"):
+            gravity_deposit(0.02, history=str(tmp_path / "b.h5"), **dict(kw, mu=0.4))
+    assert not ck.exists()
+    r = gravity_deposit(0.02, history=str(tmp_path / "b.h5"), resume=True, **kw)
+    np.testing.assert_array_equal(read_history(r.history).position,
+                                  read_history(ref.history).position)
     with pytest.raises(ValueError, match="checkpoint_every must be an integer >= 0"):
         gravity_deposit(0.02, history=str(tmp_path / "c.h5"), sample="box", checkpoint_every=-1)
     with pytest.raises(ValueError, match="resume must be True or False"):

@@ -157,3 +157,27 @@ def assert_same_wire_lid_trajectory(other: dict, plain: dict | None = None, step
     np.testing.assert_allclose(b.link_impulse, a.link_impulse, rtol=0,
                                atol=1e-6 * np.abs(a.link_impulse).max() + 1e-15)
     assert (b.link_impulse >= 0.0).all()
+
+
+def stop_runs_at(monkeypatch, step, how="sigint"):
+    """Every experiment run of this process (``engine.experiments.common.run``) stops at
+    ``step``: by Ctrl-C (``how="sigint"``: the run stops after the step) or by a crash
+    (``"crash"``: a RuntimeError out of the run, which leaves its files as a process killed
+    there would)."""
+    import os
+    import signal
+
+    import engine.experiments.common as common
+    from engine.step import CallbackWriter
+
+    real = common.run
+
+    def stop(model, state):
+        if state.step == step:
+            if how == "sigint":
+                os.kill(os.getpid(), signal.SIGINT)
+            else:
+                raise RuntimeError("crash")
+
+    monkeypatch.setattr(common, "run", lambda model, state, n, writers=(), **k: real(
+        model, state, n, writers=[*writers, CallbackWriter(stop)], **k))

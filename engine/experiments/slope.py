@@ -97,11 +97,8 @@ def slope_deposit(scale: float = 0.02, *, wire: bool = True, wire_density: float
     (:attr:`engine.model.Options.relax`; > 1, over-relaxation, on one thread and unmixed).
     ``neighbour_contact``: linked wire beads also touch like two spheres
     (:meth:`engine.Scene.add_wire`; default False: a slack link lets its two beads overlap).
-    ``checkpoint_every`` [steps] (default 0: only when interrupted): a checkpoint
-    (``history`` with the suffix ``.resume.h5``, :class:`engine.experiments.common.RestCheckpoint`)
-    that far apart and when Ctrl-C / SIGTERM stops the run; ``resume=True`` goes on from
-    one left by the same call (a run killed or stopped), bit for bit as if it had never
-    stopped, and starts afresh, with a warning, from a checkpoint of other parameters.
+    ``checkpoint_every``, ``resume``: checkpoints and going on from one, as in
+    :func:`engine.experiments.gravity_deposit`.
     """
     identity = run_identity(dict(locals(), test="slope_deposit"))
     scale = check_scale(scale)

@@ -7,6 +7,7 @@ import pytest
 from engine.experiments import (ConvergenceError, box_triaxial, cylinder_triaxial,
                                 gravity_deposit, slope_deposit)
 from engine.io import read_history
+from tests.helpers import stop_runs_at
 
 P = 15e3
 
@@ -307,21 +308,9 @@ def test_solver_choice_defaults_to_hot_sweeps_unless_anderson_is_asked_for():
 def test_an_interrupted_run_returns_what_it_computed(fn, kw, monkeypatch, tmp_path):
     """Ctrl-C / SIGTERM at step 30 of a run whose every step misses tol: the result of the
     30 steps is returned with its history (not a ConvergenceError judging the steps not run)."""
-    import os
-    import signal
-
-    import engine.experiments.common as common
     from engine.io import load
-    from engine.step import CallbackWriter
 
-    real = common.run
-
-    def stop(model, state):
-        if state.step == 30:
-            os.kill(os.getpid(), signal.SIGINT)
-
-    monkeypatch.setattr(common, "run", lambda model, state, n, writers=(), **k: real(
-        model, state, n, writers=[*writers, CallbackWriter(stop)], **k))
+    stop_runs_at(monkeypatch, 30)
     r = fn(0.02, max_iter=2, tol=1e-12, history=str(tmp_path / "h.h5"), progress=False, **kw)
     c = r.convergence
     assert c["interrupted"] and c["steps"] == 30 and c["share"] > c["limit"]
@@ -348,28 +337,6 @@ def test_neighbour_contact_keeps_the_beads_of_slack_links_apart(tmp_path):
     assert short[True].min() > 0.999
 
 
-def _stop_at(monkeypatch, step, how):
-    """Every experiment run of this process stops at ``step``: Ctrl-C ("sigint") or a crash
-    ("crash": an exception out of the run, as a process killed there leaves its files)."""
-    import os
-    import signal
-
-    import engine.experiments.common as common
-    from engine.step import CallbackWriter
-
-    real = common.run
-
-    def stop(model, state):
-        if state.step == step:
-            if how == "sigint":
-                os.kill(os.getpid(), signal.SIGINT)
-            else:
-                raise RuntimeError("crash")
-
-    monkeypatch.setattr(common, "run", lambda model, state, n, writers=(), **k: real(
-        model, state, n, writers=[*writers, CallbackWriter(stop)], **k))
-
-
 @pytest.mark.parametrize("how, at", [("sigint", 250), ("crash", 250), ("sigint", 780)])
 def test_a_deposit_resumed_from_its_checkpoint_ends_as_if_it_never_stopped(how, at,
                                                                            monkeypatch,
@@ -387,7 +354,7 @@ def test_a_deposit_resumed_from_its_checkpoint_ends_as_if_it_never_stopped(how, 
     ref = gravity_deposit(0.02, history=str(tmp_path / "a.h5"), **kw)
     assert ref.convergence["steps"] == 780
     with monkeypatch.context() as mp:
-        _stop_at(mp, at, how)
+        stop_runs_at(mp, at, how)
         if how == "sigint":
             assert gravity_deposit(0.02, history=str(tmp_path / "b.h5"), **kw
                                    ).convergence["interrupted"]
@@ -423,7 +390,7 @@ def test_a_checkpoint_that_is_not_this_runs_is_not_resumed(monkeypatch, tmp_path
     for other, says in ((dict(mu=0.4), "belongs to a run with other parameters"),
                         (dict(threads=2), r"solver options \(threads 2, now 1\)")):
         with monkeypatch.context() as mp:
-            _stop_at(mp, 150, "sigint")
+            stop_runs_at(mp, 150, "sigint")
             gravity_deposit(0.02, history=str(tmp_path / "b.h5"), **dict(kw, **other))
         assert ck.exists()
         with pytest.warns(RuntimeWarning, match=says):
@@ -432,10 +399,10 @@ def test_a_checkpoint_that_is_not_this_runs_is_not_resumed(monkeypatch, tmp_path
         assert not ck.exists() and r.convergence["resumed_from"] == []
     # stopped at 150 (its checkpoint), then a fresh run of another μ crashes at step 90
     with monkeypatch.context() as mp:
-        _stop_at(mp, 150, "sigint")
+        stop_runs_at(mp, 150, "sigint")
         gravity_deposit(0.02, history=str(tmp_path / "b.h5"), **kw)
     with monkeypatch.context() as mp:
-        _stop_at(mp, 90, "crash")
+        stop_runs_at(mp, 90, "crash")
         with pytest.raises(RuntimeError, match="crash"):
             gravity_deposit(0.02, history=str(tmp_path / "b.h5"), **dict(kw, mu=0.4))
     assert not ck.exists()
@@ -454,7 +421,7 @@ def test_a_slope_deposit_resumes_bit_for_bit(monkeypatch, tmp_path):
     kw = dict(progress=False, steps=400, record_every=20, frames=100)
     ref = slope_deposit(0.02, history=str(tmp_path / "a.h5"), **kw)
     with monkeypatch.context() as mp:
-        _stop_at(mp, 130, "sigint")
+        stop_runs_at(mp, 130, "sigint")
         with pytest.warns(RuntimeWarning, match="no slope profile after 130 steps"):
             slope_deposit(0.02, history=str(tmp_path / "b.h5"), **kw)
     r = slope_deposit(0.02, history=str(tmp_path / "b.h5"), resume=True, **kw)

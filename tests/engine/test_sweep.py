@@ -334,29 +334,13 @@ def test_ctrl_c_on_a_local_cluster_keeps_the_finished_cases_quietly(tmp_path):
     assert [r["status"] for r in load_table(out).rows] == ["done", "pending", "pending"]
 
 
-def _interrupt_at_step_30(monkeypatch):
-    """Make every experiment run of this process stop at step 30 as on Ctrl-C."""
-    import signal
-
-    import engine.experiments.common as common
-    from engine.step import CallbackWriter
-
-    real = common.run
-
-    def stop(model, state):
-        if state.step == 30:
-            os.kill(os.getpid(), signal.SIGINT)
-
-    monkeypatch.setattr(common, "run", lambda model, state, n, writers=(), **k: real(
-        model, state, n, writers=[*writers, CallbackWriter(stop)], **k))
-
-
 def test_an_interrupted_named_test_is_not_recorded_as_done(tmp_path, monkeypatch):
     """The paper's tests by name (what ``nscd sweep`` runs) go through a wrapper returning
     table values: an interrupted run must still stop the sweep and stay pending."""
     from engine.sweep import CaseInterrupted
+    from tests.helpers import stop_runs_at
 
-    _interrupt_at_step_30(monkeypatch)
+    stop_runs_at(monkeypatch, 30)
     out = tmp_path / "g.json"
     with pytest.raises(CaseInterrupted, match="gravity_deposit .* interrupted after 30 steps"):
         sweep("gravity_deposit", {"scale": [0.02], "sample": ["box"], "seed": [0, 1]}, "serial",

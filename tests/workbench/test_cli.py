@@ -105,20 +105,9 @@ def test_a_failed_run_is_one_line_with_exit_code_1(tmp_path, capsys):
 def test_an_interrupted_run_keeps_its_figures_and_exits_130(tmp_path, capsys, monkeypatch):
     """Ctrl-C at step 30 of the failing run above: no failure (the steps not run are not
     judged), the figures of the 30 steps, and the shell's code for SIGINT."""
-    import os
-    import signal
+    from tests.helpers import stop_runs_at
 
-    import engine.experiments.common as common
-    from engine.step import CallbackWriter
-
-    real = common.run
-
-    def stop(model, state):
-        if state.step == 30:
-            os.kill(os.getpid(), signal.SIGINT)
-
-    monkeypatch.setattr(common, "run", lambda model, state, n, writers=(), **k: real(
-        model, state, n, writers=[*writers, CallbackWriter(stop)], **k))
+    stop_runs_at(monkeypatch, 30)
     p = tmp_path / "c.toml"
     p.write_text('test = "box_triaxial"\nscale = 0.02\n[parameters]\naxial_strain = 0.002\n'
                  'max_iter = 2\ntol = 1e-12\nmax_nonconverged = 0.1\n')

@@ -386,11 +386,11 @@ def test_an_interrupted_paper_run_is_not_recorded_as_done_and_resumes(tmp_path, 
     table values (the sweep then leaves it pending), and the case run again resumes."""
     import workbench.paper as wp
     from engine.sweep import CaseInterrupted
-    from tests.engine.test_sweep import _interrupt_at_step_30
+    from tests.helpers import stop_runs_at
 
     (case,) = [c for c in cases_for(SCALES["tiny"], only="fig7") if c["name"].endswith("0")]
     with monkeypatch.context() as mp:
-        _interrupt_at_step_30(mp)
+        stop_runs_at(mp, 30)
         with pytest.raises(CaseInterrupted, match="interrupted after 30 steps"):
             wp.paper_case(**case, runs_dir=str(tmp_path / "a"))
     assert not (tmp_path / "a" / f"{case['name']}.curves.h5").exists()

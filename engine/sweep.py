@@ -712,27 +712,6 @@ def _run_todo(fn, todo, client, fixed, n_workers, finished, failed, on_stage, sh
                       on_stage=on_stage if follow else None, show=show)
 
 
-def _close_now(client, cluster, since: float) -> None:
-    """After Ctrl-C, close our LocalCluster without waiting on its busy workers: a short
-    graceful close, then the worker processes started since ``since`` are killed.  (A
-    sweep of engine runs in a fresh clone, on a loaded machine, once took over 5 min to
-    stop after Ctrl-C; the cause was not found, and a case holding the GIL stopped in
-    4 s with or without this.)"""
-    import psutil
-
-    for obj in (client, cluster):
-        try:
-            obj.close(timeout=5)
-        except BaseException:  # noqa: BLE001 - a timeout, or a second Ctrl-C: go on closing
-            pass
-    for p in psutil.Process().children(recursive=True):
-        try:
-            if p.create_time() >= since - 1 and "spawn_main" in " ".join(p.cmdline()):
-                p.kill()
-        except psutil.Error:
-            pass
-
-
 def _run_dask(fn, todo, client, fixed, n_workers, finished, failed, *, poll=5.0,
               no_worker_timeout=300.0, on_stage=None, show=lambda: None):
     from distributed import Client, wait
@@ -742,8 +721,6 @@ def _run_dask(fn, todo, client, fixed, n_workers, finished, failed, *, poll=5.0,
         _DistTimeout = TimeoutError
 
     own = None
-    started = time.time()
-    interrupted = False
     if client is None:
         client = own = local_client(n_workers)
     elif isinstance(client, str):
@@ -801,7 +778,6 @@ def _run_dask(fn, todo, client, fixed, n_workers, finished, failed, *, poll=5.0,
     except KeyboardInterrupt:
         # Ctrl-C: the cases running on a cluster not ours would go on without anyone to
         # gather them (our own LocalCluster is closed below)
-        interrupted = True
         if getattr(own, "cluster", None) is None and futures:
             try:
                 client.cancel(list(futures))
@@ -818,9 +794,6 @@ def _run_dask(fn, todo, client, fixed, n_workers, finished, failed, *, poll=5.0,
                     pass
         if own is not None:
             cluster = getattr(own, "cluster", None)
-            if interrupted and cluster is not None:
-                _close_now(own, cluster, started)
-            else:
-                own.close()
-                if cluster is not None:
-                    cluster.close()
+            own.close()
+            if cluster is not None:
+                cluster.close()

@@ -297,7 +297,11 @@ def nap(*, seconds: float) -> dict:
 
 
 _CTRL_C_SCRIPT = """
+import signal
 import sys
+# a terminal's Ctrl-C: a command started in the background by a shell without job control
+# (CI) inherits SIGINT ignored, and Python then keeps ignoring it
+signal.signal(signal.SIGINT, signal.default_int_handler)
 from engine.sweep import sweep
 from tests.engine.test_sweep import nap
 if __name__ == "__main__":

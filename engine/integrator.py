@@ -18,7 +18,6 @@ a spherical inertia) but no rotation is stored.
 """
 from __future__ import annotations
 
-import numpy as np
 from numba import njit
 
 from .drivers import drive_forces, drive_velocities

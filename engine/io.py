@@ -490,6 +490,23 @@ def load_extra(path) -> dict:
     return _reading(path, read)
 
 
+def _run_id_of(f) -> str | None:
+    rid = f.attrs.get("run_id")
+    return rid.decode() if isinstance(rid, bytes) else (None if rid is None else str(rid))
+
+
+def history_run_id(path) -> str | None:
+    """The random id a :class:`History` file was written under (kept when a run resumes it;
+    None for a file without one).  Reads a history whose writer is still running or was
+    killed (SWMR)."""
+    def read(f):
+        if _check_root(f, path) != "history":
+            raise _BadArgument(f"{path} is not a history")
+        return _run_id_of(f)
+
+    return _reading(path, read)
+
+
 def file_content(path) -> tuple[str, int]:
     """What an nscd-workbench file holds: (``"checkpoint"`` or ``"history"``, format
     version).  FileNotFoundError or :class:`FormatError` (naming the file) otherwise."""
@@ -702,9 +719,7 @@ class History:
             with h5py.File(tmp, "w", libver=LIBVER) as dst:
                 for k, v in src.attrs.items():
                     dst.attrs[k] = v
-                rid = src.attrs.get("run_id")
-                self.run_id = rid.decode() if isinstance(rid, bytes) else (
-                    str(rid) if rid is not None else None)
+                self.run_id = _run_id_of(src)
                 for k in src:
                     src.copy(src[k], dst, name=k)
                 g, fg = dst["records"], dst["frames"]
@@ -991,5 +1006,5 @@ def _state_from_frame(f, model: Model, frame: int) -> State:
 
 
 __all__ = ["save", "load", "load_model", "file_content", "History", "HistoryData",
-           "read_history", "Checkpoint", "FormatError", "UnsavedCallable", "kinetic_energy",
+           "read_history", "history_run_id", "Checkpoint", "FormatError", "UnsavedCallable", "kinetic_energy",
            "wall_forces", "FORMAT_VERSION", "FORMAT_NAME"]

@@ -33,6 +33,14 @@ def _finite_array(value, name: str, shape_tail: tuple, dtype=float) -> np.ndarra
     return a
 
 
+def check_bool(name: str, value) -> bool:
+    """``value`` as a bool; a ValueError naming ``name`` if it is not True or False (a 0, 1
+    or "yes" is refused: a flag set by mistake)."""
+    if not isinstance(value, (bool, np.bool_)):
+        raise ValueError(f"{name} must be True or False, got {value!r}")
+    return bool(value)
+
+
 def _vec3(value, name: str, unit: bool = False) -> np.ndarray:
     a = np.asarray(value, dtype=float)
     if a.shape != (3,) or not np.all(np.isfinite(a)):
@@ -185,8 +193,7 @@ class Scene:
         -------
         (n,) int32 bead ids.
         """
-        if not isinstance(neighbour_contact, (bool, np.bool_)):
-            raise ValueError(f"neighbour_contact must be True or False, got {neighbour_contact!r}")
+        neighbour_contact = check_bool("neighbour_contact", neighbour_contact)
         if not isinstance(law, _laws.WireLaw):
             raise ValueError(f"law must be a wire law (RigidRod, ElasticRod, RigidWire, "
                              f"ElasticWire, BrittleElasticWire), got {law!r}")

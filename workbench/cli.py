@@ -146,6 +146,9 @@ class SlopeParams(SolverParams):
     frames: int = Field(200, ge=0)
     checkpoint_every: int = Field(0, ge=0, description=CHECKPOINT_HELP)
     resume: bool = Field(False, description=RESUME_HELP)
+    fit_degree: Optional[int] = Field(None, ge=1, le=11, description=(
+        "degree of the heap's height regression whose steepest slope is the max slope "
+        "(None: 1 for sand, 3 with a wire; the paper's TexSol(2): 8)"))
 
 
 class DepositParams(SolverParams):

@@ -17,7 +17,7 @@
 from .curves import MacroStiffness, macro_stiffness
 from .network import (ForceNetwork, box_strain, cylinder_strain, force_network, wall_forces,
                       wall_stress)
-from .profiles import SlopeProfile, slope_profile
+from .profiles import SlopeProfile, max_slope, slope_profile
 from .strain import StrainResult, best_fit_strain
 from .stress import StressResult, equivalent_stress, principal, weber_stress
 from .torus import ToroidalMap, toroidal_map
@@ -26,7 +26,7 @@ from .wire import (WireStats, direction_histogram, length_density, orientation_t
 
 __all__ = ["weber_stress", "equivalent_stress", "principal", "StressResult", "best_fit_strain",
            "StrainResult", "force_network", "ForceNetwork", "wall_forces", "toroidal_map",
-           "ToroidalMap", "macro_stiffness", "MacroStiffness", "slope_profile", "SlopeProfile",
+           "ToroidalMap", "macro_stiffness", "MacroStiffness", "slope_profile", "SlopeProfile", "max_slope",
            "wall_stress", "box_strain", "cylinder_strain", "wire_chains", "wire_length",
            "length_density", "orientation_tensor", "direction_histogram", "tortuosity",
            "WireStats", "wire_stats"]

@@ -34,6 +34,28 @@ class SlopeProfile:
     max_slope_deg: float
 
 
+def max_slope(r, height, degree: int, *, samples: int = 200) -> tuple[np.poly1d, float]:
+    """The paper's maximum slope of a heap (§3.1, Fig. 10): the least-squares polynomial of
+    ``degree`` through the occupied bins of h(r) (finite ``height`` [m] at the bin centres
+    ``r`` [m]) and its steepest slope max |dh/dr| over them [deg], on ``samples`` radii.
+
+    The paper fits sand with a line, TexSol(1) with a cubic and TexSol(2) with a polynomial
+    of the 8th degree.  The fit is made on [-1, 1] (``numpy.polynomial.Polynomial.fit``),
+    which keeps the 8th degree well conditioned at radii of millimetres; the returned
+    ``np.poly1d`` is the same polynomial in r."""
+    r, h = np.asarray(r, float), np.asarray(height, float)
+    degree = int(degree)
+    if degree < 1:
+        raise ValueError(f"degree must be >= 1, got {degree}")
+    ok = np.isfinite(h)
+    if ok.sum() <= degree:
+        raise ValueError(f"{ok.sum()} occupied bins, need more than degree={degree}")
+    fit = np.polynomial.Polynomial.fit(r[ok], h[ok], degree)
+    rs = np.linspace(r[ok].min(), r[ok].max(), int(samples))
+    slope = float(np.degrees(np.arctan(np.abs(fit.deriv()(rs)).max())))
+    return np.poly1d(fit.convert().coef[::-1]), slope
+
+
 def slope_profile(model, state, *, floor, center=(0.0, 0.0), r_max: float | None = None,
                   n_bins: int = 20, n_sectors: int = 12, degree: int = 3,
                   pressure_degree: int = 3) -> SlopeProfile:
@@ -51,7 +73,8 @@ def slope_profile(model, state, *, floor, center=(0.0, 0.0), r_max: float | None
     r_max : float [m]
         Outer radius of the bins (default: the farthest sphere).
     degree, pressure_degree : int
-        Degrees of the regressions (paper: 1 for sand, 3 and 8 for TexSol; 3 for p).
+        Degrees of the regressions (paper: 1 for sand, 3 and 8 for TexSol; 3 for p); the
+        maximum slope is :func:`max_slope`'s.
     """
     if int(n_bins) < 2 or int(n_sectors) < 1:
         raise ValueError(f"n_bins must be >= 2 and n_sectors >= 1, got {n_bins}, {n_sectors}")
@@ -98,12 +121,10 @@ def slope_profile(model, state, *, floor, center=(0.0, 0.0), r_max: float | None
             fz = np.where(on_j[on], -c.force[on, 2], c.force[on, 2])
             np.add.at(pressure, cb, -fz)
     pressure /= np.pi * (edges[1:] ** 2 - edges[:-1] ** 2)
-    ok = np.isfinite(height)
-    if ok.sum() <= degree:
-        raise ValueError(f"slope_profile: {ok.sum()} occupied bins, need more than degree={degree}")
-    hfit = np.poly1d(np.polyfit(centres[ok], height[ok], degree))
+    try:
+        hfit, slope = max_slope(centres, height, degree)
+    except ValueError as e:
+        raise ValueError(f"slope_profile: {e}") from None
     pfit = np.poly1d(np.polyfit(centres, pressure, min(pressure_degree, n_bins - 1)))
-    rs = np.linspace(centres[ok].min(), centres[ok].max(), 200)
-    slope = float(np.degrees(np.arctan(np.abs(hfit.deriv()(rs)).max())))
     return SlopeProfile(r=centres, r_edges=edges, height=height, pressure=pressure,
                         height_fit=hfit, pressure_fit=pfit, max_slope_deg=slope)

@@ -21,7 +21,7 @@ from numba import njit, prange
 
 from .broadphase import chunk_regions, chunks_needed
 
-from ..model import CAP_BOTTOM, CAP_TOP, CYLINDER, PLANE
+from ..model import CAP_BOTTOM, CAP_TOP, PLANE
 
 
 @njit(cache=True)

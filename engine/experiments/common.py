@@ -14,6 +14,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ..drivers import ConfinementError  # noqa: F401  (re-exported: engine.experiments)
+from ..scene import check_bool  # noqa: F401  (the experiments import it from here)
 from ..step import NonConvergenceWarning, run
 
 __all__ = ["TestResult", "ConvergenceError", "inertial_rate", "check_scale"]
@@ -86,12 +87,6 @@ def check_scale(scale) -> float:
     if not (math.isfinite(s) and s > 0):
         raise ValueError(f"scale must be finite and > 0, got {scale!r}")
     return s
-
-
-def check_bool(name, value) -> bool:
-    if not isinstance(value, (bool, np.bool_)):
-        raise ValueError(f"{name} must be True or False, got {value!r}")
-    return bool(value)
 
 
 def check_positive(name, value, unit):
@@ -278,9 +273,10 @@ def run_to_rest(stages: Stages, steps: int, every: int, ke_fraction: float, ener
     return at_rest
 
 
-#: Arguments of a test that do not change its result (not part of a checkpoint's identity;
-#: the thread count is checked on the model, :meth:`RestCheckpoint.load`).
-NOT_IDENTITY = ("history", "progress", "resume", "checkpoint_every", "threads")
+#: Arguments of a test that do not change its run (not part of a checkpoint's identity;
+#: the thread count is checked on the model, :meth:`RestCheckpoint.load`; the slope's
+#: ``fit_degree`` only changes the regression of the heap at rest).
+NOT_IDENTITY = ("history", "progress", "resume", "checkpoint_every", "threads", "fit_degree")
 
 
 def run_identity(arguments: dict) -> str:
@@ -373,7 +369,7 @@ class RestCheckpoint:
         used (another run's parameters, model or history; unreadable; its history gone or
         not reopenable): a warning says why, the checkpoint is removed and the run starts
         afresh."""
-        from ..io import load, load_extra, read_history
+        from ..io import history_run_id, load, load_extra, read_history
 
         if not os.path.exists(self.path):
             return None
@@ -390,7 +386,7 @@ class RestCheckpoint:
                 diff = _model_difference(ckpt_model, model)
                 if diff is not None:
                     why = f"{diff} differs from this run's (another engine version?)"
-                elif (_history_run_id(history) or "") != info.get("run_id", ""):
+                elif (history_run_id(history) or "") != info.get("run_id", ""):
                     why = f"its history {history} is another run's"
                 elif h.n_records and h.step[-1] < int(info["written_step"]):
                     why = f"its history {history} stops before it"
@@ -427,14 +423,6 @@ class RestCheckpoint:
         for p in [self.path, *glob.glob(glob.escape(self.path) + ".tmp*")]:
             if os.path.exists(p):
                 os.remove(p)
-
-
-def _history_run_id(path) -> str | None:
-    import h5py
-
-    with h5py.File(path, "r", swmr=True) as f:
-        v = f.attrs.get("run_id")
-    return v.decode() if isinstance(v, bytes) else (None if v is None else str(v))
 
 
 def check_rest_run(steps, ke_fraction, record_every) -> None:

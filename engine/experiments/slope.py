@@ -22,6 +22,21 @@ __all__ = ["slope_deposit", "SlopeResult", "hex_floor"]
 
 G = 9.81
 
+#: Radial bins of the heap's profile h(r), p(r) (Fig. 10).
+PROFILE_BINS = 12
+
+
+def check_fit_degree(fit_degree, wire, n_bins) -> int:
+    """The degree of the heap's height regression: 1 for sand and 3 with a wire when None,
+    else an integer in [1, n_bins − 1]."""
+    if fit_degree is None:
+        return 3 if wire else 1
+    if isinstance(fit_degree, (bool, np.bool_)) or not isinstance(fit_degree, (int, np.integer)) \
+            or not 1 <= fit_degree <= n_bins - 1:
+        raise ValueError(f"fit_degree must be an integer in [1, {n_bins - 1}] (the profile "
+                         f"has {n_bins} radial bins) or None, got {fit_degree!r}")
+    return int(fit_degree)
+
 
 @dataclass(kw_only=True)
 class SlopeResult(RestResult):
@@ -77,7 +92,7 @@ def slope_deposit(scale: float = 0.02, *, wire: bool = True, wire_density: float
                   frames: int = 200, max_nonconverged: float = 0.25,
                   history: str = "out/slope_deposit.h5", seed: int = 0,
                   checkpoint_every: int = 0, resume: bool = False,
-                  progress: bool = True) -> SlopeResult:
+                  fit_degree: int | None = None, progress: bool = True) -> SlopeResult:
     """The slope deposit of §3.1.
 
     The sample is :func:`engine.prep.slope_sample` (Ø12 mm × 14 mm, 26 000 grains Ø0.2–0.6
@@ -98,7 +113,11 @@ def slope_deposit(scale: float = 0.02, *, wire: bool = True, wire_density: float
     ``neighbour_contact``: linked wire beads also touch like two spheres
     (:meth:`engine.Scene.add_wire`; default False: a slack link lets its two beads overlap).
     ``checkpoint_every``, ``resume``: checkpoints and going on from one, as in
-    :func:`engine.experiments.gravity_deposit`.
+    :func:`engine.experiments.gravity_deposit`.  ``fit_degree`` is the degree of the height
+    regression whose steepest slope is ``max_slope_deg`` (:func:`engine.analysis.max_slope`;
+    1 to 11, the profile's 12 bins; default None: 1 for sand, 3 with a wire).  The paper
+    fits sand with a line, TexSol(1) with a cubic and TexSol(2) with the 8th degree, so a
+    higher degree finds a steeper slope on the same heap (docs/paper.md, Fig. 10).
     """
     identity = run_identity(dict(locals(), test="slope_deposit"))
     scale = check_scale(scale)
@@ -108,6 +127,7 @@ def slope_deposit(scale: float = 0.02, *, wire: bool = True, wire_density: float
     check_rest_run(steps, ke_fraction, record_every)
     ckpt = RestCheckpoint(history, checkpoint_every, record_every, identity)
     resume = check_bool("resume", resume)
+    fit_degree = check_fit_degree(fit_degree, wire, PROFILE_BINS)
     law = wire_law_or_default(wire_law) if wire else None
     sample = slope_sample(scale, wire=wire, wire_density=wire_density, seed=seed)
     R = sample.container.radius
@@ -149,8 +169,8 @@ def slope_deposit(scale: float = 0.02, *, wire: bool = True, wire_density: float
     profile_error = None
     try:
         prof = slope_profile(model, state, floor=rubber, center=(0.0, 0.0),
-                             r_max=floor_extent * R, n_bins=12, n_sectors=8,
-                             degree=1 if not wire else 3)
+                             r_max=floor_extent * R, n_bins=PROFILE_BINS, n_sectors=8,
+                             degree=fit_degree)
     except ValueError as e:  # stopped (steps, Ctrl-C) before the heap spread over the floor
         prof = None
         profile_error = (f"no slope profile after {stages.steps} steps ({e}): the heap has not "

@@ -276,6 +276,38 @@ def test_slope_profile_of_a_cone_and_floor_pressure_of_a_pile():
     assert (prof.pressure * area).sum() == pytest.approx(c.normal_force[c.j == floor].sum(), rel=1e-12)
 
 
+def test_max_slope_of_known_profiles():
+    """max_slope: a straight heap gives its angle whatever the degree; a parabola h = a r²
+    on [0, R] gives atan(2 a R) from degree 2 on; the 8th degree recovers an exact 8th-degree
+    profile at millimetre radii (the fit is made on [-1, 1]); a line on a curved heap is
+    gentler than its cubic; too few bins or a degree < 1 raise."""
+    from engine.analysis import max_slope
+
+    r = (np.arange(12) + 0.5) * 1e-3
+    for deg in (1, 3, 8):
+        fit, th = max_slope(r, 5e-3 - np.tan(np.radians(25.0)) * r, deg)
+        assert th == pytest.approx(25.0, abs=1e-6)
+    a = 40.0
+    for deg in (2, 3, 8):
+        fit, th = max_slope(r, a * r ** 2, deg, samples=1000)
+        assert th == pytest.approx(np.degrees(np.arctan(2 * a * r[-1])), rel=1e-6)
+        assert fit(r) == pytest.approx(a * r ** 2, abs=1e-12)
+    c = np.array([3e-3, -0.5, 40.0, 3e3, -2e5, 1e7, -2e8, 1e9, 1e11])   # h = sum c_k r^k
+    h = np.polynomial.polynomial.polyval(r, c)
+    fit, th = max_slope(r, h, 8, samples=5000)
+    d = np.polynomial.polynomial.polyval(np.linspace(r[0], r[-1], 5000),
+                                         np.polynomial.polynomial.polyder(c))
+    assert th == pytest.approx(np.degrees(np.arctan(np.abs(d).max())), rel=1e-6)
+    curved = 3e-3 * (1 - (r / r[-1]) ** 4)
+    assert max_slope(r, curved, 1)[1] < max_slope(r, curved, 3)[1] - 5
+    holes = np.where(r < 4e-3, curved, np.nan)                 # 4 occupied bins
+    assert max_slope(r, holes, 3)[1] > 0
+    with pytest.raises(ValueError, match="4 occupied bins, need more than degree=4"):
+        max_slope(r, holes, 4)
+    with pytest.raises(ValueError, match="degree must be >= 1"):
+        max_slope(r, curved, 0)
+
+
 def test_boundary_measures():
     """Wall stress of a pile's floor = weight / area; box and cylinder strains of an imposed
     homogeneous deformation."""

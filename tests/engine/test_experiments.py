@@ -162,6 +162,8 @@ def test_gravity_deposit_in_the_mould(tmp_path):
     (cylinder_triaxial, dict(compaction_mu=0.0), "compaction_mu"),
     (box_triaxial, dict(compaction_mu=-0.1), "compaction_mu"),
     (slope_deposit, dict(record_every=0), "record_every"),
+    (slope_deposit, dict(fit_degree=12), r"fit_degree must be an integer in \[1, 11\]"),
+    (slope_deposit, dict(fit_degree=2.0), "fit_degree must be an integer"),
     (box_triaxial, dict(scale=0.02, frames=-1), "frames must be an integer >= 0"),
 ])
 def test_bad_input(fn, kw, field, tmp_path):

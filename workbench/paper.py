@@ -984,8 +984,8 @@ def make_figures(curves: dict, scale: Scale, fig_dir: Path, chosen=None) -> dict
     # Fig. 10
     if want("fig10"):
         profs, labs = [], []
-        for tag, lab in (("sand", "sand"), ("w400", "TexSol(1) 400 km/m³"),
-                         ("w800", "TexSol(2) 800 km/m³")):
+        for tag, lab in (("sand", "sand, line"), ("w400", "TexSol(1) 400 km/m³, cubic"),
+                         ("w800", "TexSol(2) 800 km/m³, 8th degree")):
             t = c(f"slope_{tag}_seed0")
             if t is not None:                   # the paper's fit of each heap
                 fit, th = max_slope(t["r"], t["height"], PAPER_FIT_DEGREE[tag])
@@ -1402,7 +1402,7 @@ def _markdown(scale, claims, figs, pvds, table, rows, curves, out, wall, t_sim, 
                   ("fig08_09", "Fig. 8-9 — wire element directions before / after the slope deposit"),
                   ("fig09_beads", "Fig. 9 — the TexSol heap after the deposit"),
                   ("fig09_wire", "Fig. 9 — the wire network after the deposit (tension)"),
-                  ("fig10", "Fig. 10 — heap shape and floor pressure, sand / 400 / 800 km·m⁻³"),
+                  ("fig10", "Fig. 10 — heap shape and floor pressure, sand / 400 / 800 km·m⁻³, seed 0, with the paper's fits"),
                   ("fig11", "Fig. 11 — box triaxial: wire stress of the upper and lower halves"),
                   ("fig11_forces", "Fig. 11(b) — force network (end of the box test)"),
                   ("fig11_wire", "Fig. 11(c) — wire in tension (end of the box test)"),

@@ -182,6 +182,14 @@ def test_fig10_needs_more_than_the_papers_choice_of_fits():
     a, _ = _fig10(runs, (0, 1, 2))
     assert a[0] is False
     assert "paper's fits: 400 +" in a[1] and "one cubic: 400 -" in a[1]
+    # a TexSol(2) heap over 8 bins cannot take the paper's 8th degree: its seed is left out
+    short = dict(r=R_BINS, height=np.where(R_BINS < 8e-3, _cone(13)["height"], np.nan))
+    runs[2]["w800"] = short
+    a, b = _fig10(runs, (0, 1, 2))
+    assert "seed 2 left out: its w800 heap: 8 occupied bins, need more than degree=8" in a[1]
+    assert "mean ± std over 2 seeds" in a[1] and "seed 2 left out" in b[1]
+    a, b = _fig10(runs[2:], (2,))
+    assert a[0] is None and b[0] is None and a[1].startswith("seed 2 left out")
 
 
 def test_fig11_reads_every_seed():

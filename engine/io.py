@@ -1006,5 +1006,5 @@ def _state_from_frame(f, model: Model, frame: int) -> State:
 
 
 __all__ = ["save", "load", "load_model", "file_content", "History", "HistoryData",
-           "read_history", "history_run_id", "Checkpoint", "FormatError", "UnsavedCallable", "kinetic_energy",
-           "wall_forces", "FORMAT_VERSION", "FORMAT_NAME"]
+           "read_history", "history_run_id", "Checkpoint", "FormatError", "UnsavedCallable",
+           "kinetic_energy", "wall_forces", "FORMAT_VERSION", "FORMAT_NAME"]

@@ -26,7 +26,8 @@ from .wire import (WireStats, direction_histogram, length_density, orientation_t
 
 __all__ = ["weber_stress", "equivalent_stress", "principal", "StressResult", "best_fit_strain",
            "StrainResult", "force_network", "ForceNetwork", "wall_forces", "toroidal_map",
-           "ToroidalMap", "macro_stiffness", "MacroStiffness", "slope_profile", "SlopeProfile", "max_slope",
+           "ToroidalMap", "macro_stiffness", "MacroStiffness", "slope_profile", "SlopeProfile",
+           "max_slope",
            "wall_stress", "box_strain", "cylinder_strain", "wire_chains", "wire_length",
            "length_density", "orientation_tensor", "direction_histogram", "tortuosity",
            "WireStats", "wire_stats"]

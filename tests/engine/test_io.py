@@ -498,3 +498,22 @@ def test_history_resumed_at_a_step_cuts_what_follows_it(tmp_path):
     assert d.step.tolist() == [10, 20, 30] and d.frame_step.tolist() == [20]
     with pytest.raises(FileNotFoundError, match="no history to resume"):
         io.History(tmp_path / "none.h5", resume_step=3)
+
+
+def test_history_run_id_is_kept_by_a_resume_and_read_while_open(tmp_path):
+    """A history's random run id reads back as written, also while its writer has the file
+    open (SWMR); a resumed history keeps it; a checkpoint has none to give."""
+    model, state = scene()
+    p = tmp_path / "h.h5"
+    with io.History(p, trigger=10, frames=20) as h:
+        run(model, state, 20, writers=[h], progress=False)
+        rid = h.run_id
+        assert len(rid) == 32 and io.history_run_id(p) == rid
+    with io.History(p, trigger=10, frames=20, resume_step=10) as h:
+        assert h.run_id == rid
+    assert io.history_run_id(p) == rid
+    with io.History(tmp_path / "g.h5") as g:                   # another run, another id
+        assert g.run_id != rid
+    io.save(tmp_path / "c.h5", model, state)
+    with pytest.raises(ValueError, match="is not a history"):
+        io.history_run_id(tmp_path / "c.h5")

@@ -112,7 +112,10 @@ SCALES = {
                     "12, 13c and 14, the paper's 10 k values"),
     "paper": Scale(
         "paper", False,
-        deposit=dict(scale=1.0, steps=12000, dt=5e-5, frames=1000),
+        # tol 2e-4: in the mould, at 1e-4, every one of the first 100 steps took the 1 000
+        # sweeps of max_iter and stopped at 1.1-2.0 × tol, and 3 000 sweeps reached only
+        # 1.3 × tol (the NLGS stagnates there): the 25 % rule would fail the run after hours
+        deposit=dict(scale=1.0, steps=12000, dt=5e-5, frames=1000, tol=2e-4),
         slope=dict(scale=1.0, steps=4000, dt=5e-5, frames=500),
         box=dict(scale=1.0, axial_strain=0.05, frames=1000),
         cylinder=dict(scale=1.0, axial_strain=0.1, torus_strains=[0.02, 0.05, 0.1],

@@ -123,9 +123,9 @@ SCALES = {
         fig14_seeds=(0, 1, 2), k_list=tuple(PAPER_VALUES["table2_k"]),
         description="the paper's sample sizes (26 000 / 6 500 / 6 200 grains); on two cores "
                     "the box and cylinder claims (Fig. 11-16) took 42 min, and a slope run "
-                    "95-106 min two at a time, so about 8 h for the 9; the 3 deposits in the "
-                    "mould of Fig. 7 have not been timed at this scale: use --only or a "
-                    "cluster (--scheduler)"),
+                    "95-106 min two at a time, so about 8 h for the 9, and a deposit in the "
+                    "mould (Fig. 7) 24 min (seed 0, with other runs on the cores): use "
+                    "--only, --runs or a cluster (--scheduler)"),
 }
 
 R_MIN_BOX = 0.23e-3          # the box sample's smallest grain radius [m] (r_w of Fig. 12)

@@ -27,8 +27,13 @@ sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 
 import record  # noqa: E402
 
-KNOBS = {"neighbour_contact": (lambda s: s.lower() == "true", "False,True"),
-         "tol": (float, "1e-4,2e-4")}
+def _bool(text: str) -> bool:
+    if text not in ("False", "True"):
+        raise SystemExit(f"--values: neighbour_contact takes False or True, got {text!r}")
+    return text == "True"
+
+
+KNOBS = {"neighbour_contact": (_bool, "False,True"), "tol": (float, "1e-4,2e-4")}
 
 
 def one(scale: float, seed: int, knob: str, value, dt: float, folder: str) -> dict:

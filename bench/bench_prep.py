@@ -20,8 +20,7 @@ sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 
 import record  # noqa: E402
 
-from engine.prep import (Cylinder, geometric, granulometry, paper_sample,  # noqa: E402
-                         random_walk)
+from engine.prep import Cylinder, geometric, granulometry, paper_sample  # noqa: E402
 from engine.prep.samples import PAPER  # noqa: E402
 
 LMGC90_GRAINS_PER_S = 1948 / 5.7

@@ -191,7 +191,7 @@ def main(argv=None) -> int:
         # HDF5: one history record and one frame (engine.io.History)
         from engine.io import History
         h = History(tmp / "h.h5", trigger=1, frames=1, flush=1)
-        rec_t, frame_t = [], []
+        frame_t = []
         for r in range(a.repeat + 1):
             t0 = time.perf_counter()
             h.write(model, state)          # record + frame (frames=1), flushed (flush=1)

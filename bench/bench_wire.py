@@ -634,7 +634,6 @@ def bench_no_wire(p: dict, sand: dict, wired: dict) -> dict:
              "c_iterate_nl1": iter_case(b), "a2_iterate_nl0_wire_scene_arrays": iter_case(b, nl=0)}
     t = time_interleaved(cases, p["reps"], p["target_s"])
     med = {k: v["median_ns"] for k, v in t.items()}
-    cpu = {k: v["cpu_median_ns"] for k, v in t.items()}
     # fixed cost of the link path alone: iterate with the contact count set to 0, nl = 1
     k = p["overhead_iterations"]
     fresh = lambda: (b["impulse"].copy(), b["vel6"].copy(), b["l_impulse"].copy())  # noqa: E731

@@ -152,6 +152,8 @@ def scalars_of(result) -> dict:
                steps_wall_time=c.get("wall_time"))
     if c.get("resumed_from"):                  # a run resumed from checkpoints of these steps
         out["resumed_from"] = ",".join(map(str, c["resumed_from"]))
+    if c.get("resumed_with_other_code"):       # ... of them, under other engine code
+        out["resumed_with_other_code"] = ",".join(map(str, c["resumed_with_other_code"]))
     if hasattr(result, "axial_strain"):                       # triaxial tests
         n = len(result.time)
         last = (lambda a: float(np.asarray(a)[-1]) if n else float("nan"))

@@ -1496,7 +1496,11 @@ def _run_lines(scale, rows, pvds, out) -> list:
         el = r.get("elapsed")
         status = r["status"] + (" (reused)" if r.get("skipped") else "")
         if res.get("resumed_from"):          # run in parts: the steps' time of all of them
-            status += f" (resumed at step {res['resumed_from'].replace(',', ', ')})"
+            status += f" (resumed at step {res['resumed_from'].replace(',', ', ')}"
+            if res.get("resumed_with_other_code"):
+                status += (f"; at step {res['resumed_with_other_code'].replace(',', ', ')} "
+                           f"with other engine code")
+            status += ")"
             el = res.get("steps_wall_time", el)
         if r["status"] == "failed":
             status += ": " + (r["errors"][-1].splitlines()[0] if r["errors"] else "")

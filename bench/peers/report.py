@@ -18,7 +18,6 @@ import numpy as np
 HERE = Path(__file__).resolve().parent
 ROOT = HERE.parent.parent
 sys.path.insert(0, str(HERE))
-import common  # noqa: E402
 
 TARGET = 20.0
 

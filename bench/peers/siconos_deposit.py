@@ -13,7 +13,6 @@ back from the kernel for the comparison.
 """
 import argparse
 import json
-import math
 import os
 import sys
 import time
@@ -142,7 +141,6 @@ def main():
             print("siconos step", len(rec["wall_s"]), rec["contacts"][-1],
                   rec["iterations"][-1], f"{rec['wall_s'][-1]:.4f}", flush=True)
 
-    final = {}
     t1 = time.perf_counter()
     with MechanicsHdf5Runner(io_filename=h5, mode="r+", verbose=False,
                              set_external_forces=gravity) as io:

@@ -4,12 +4,15 @@ from __future__ import annotations
 
 import contextlib
 import contextvars
+import functools
+import hashlib
 import json
 import math
 import os
 import sys
 import warnings
 from dataclasses import dataclass, field
+from pathlib import Path
 
 import numpy as np
 
@@ -181,6 +184,7 @@ class Stages:
         self.wall_time = 0.0  # [s] spent in the steps (writers included), not in the set-up
         self.non_converged = []
         self.resumed_from = []      # the steps a resumed run went on from (RestCheckpoint)
+        self.other_code_at = []     # those of them where the engine's code had changed
         self.interrupted = False
         self.bar = None
         if progress:
@@ -238,6 +242,7 @@ class Stages:
         return dict(steps=self.steps, non_converged=len(self.non_converged), share=share,
                     limit=limit, interrupted=self.interrupted, wall_time=self.wall_time,
                     resumed_from=list(self.resumed_from),
+                    resumed_with_other_code=list(self.other_code_at),
                     non_converged_steps=self.non_converged[:1000])
 
 
@@ -292,15 +297,29 @@ def run_identity(arguments: dict) -> str:
                       sort_keys=True)
 
 
+@functools.cache
+def engine_code() -> str:
+    """A fingerprint of the engine's code (12 hex digits of the SHA-256 of the paths and
+    bytes of every ``engine/**/*.py``).  A checkpoint keeps the one it was written with;
+    a run resumed under another says so (:meth:`RestCheckpoint.load`)."""
+    root = Path(__file__).resolve().parents[1]
+    h = hashlib.sha256()
+    for p in sorted(root.rglob("*.py")):
+        h.update(p.relative_to(root).as_posix().encode() + b"\0" + p.read_bytes())
+    return h.hexdigest()[:12]
+
+
 @dataclass
 class Resumed:
-    """A run to rest restored from its checkpoint (:meth:`RestCheckpoint.load`)."""
+    """A run to rest restored from its checkpoint (:meth:`RestCheckpoint.load`);
+    ``other_code``: the checkpoint was written by other engine code (:func:`engine_code`)."""
 
     state: object
     steps: int
     peak: float
     at_rest: bool
     info: dict
+    other_code: bool = False
 
 
 def _model_difference(a, b) -> str | None:
@@ -359,6 +378,8 @@ class RestCheckpoint:
                  "at_rest": int(bool(at_rest)), "wall_time": stages.wall_time,
                  "run_id": self.history.run_id or "",
                  "resumed_from": np.asarray(stages.resumed_from, np.int64),
+                 "other_code_at": np.asarray(stages.other_code_at, np.int64),
+                 "engine_code": engine_code(),
                  "non_converged": np.asarray(stages.non_converged, np.int64),
                  "written_step": -1 if rec.written_step is None else rec.written_step}
         extra.update({f"rec_{k}": np.asarray(v, float) for k, v in rec.rows.items()})
@@ -368,7 +389,10 @@ class RestCheckpoint:
         """The run restored from the checkpoint, or None: there is none, or it cannot be
         used (another run's parameters, model or history; unreadable; its history gone or
         not reopenable): a warning says why, the checkpoint is removed and the run starts
-        afresh."""
+        afresh.  A checkpoint written by other engine code (:func:`engine_code`: the
+        engine was edited or updated in between) is resumed, with a warning, and the run's
+        ``convergence["resumed_with_other_code"]`` lists the step: such a run may not end
+        as one that never stopped would have."""
         from ..io import history_run_id, load, load_extra, read_history
 
         if not os.path.exists(self.path):
@@ -397,8 +421,15 @@ class RestCheckpoint:
                           RuntimeWarning, stacklevel=3)
             self.remove()
             return None
+        written_by = str(info.get("engine_code", "")) or "unknown"
+        other = written_by != engine_code()
+        if other:
+            warnings.warn(f"resuming from {self.path}, written by other engine code "
+                          f"({written_by}, now {engine_code()}): the run goes on, but may not "
+                          f"end as one that never stopped would have", RuntimeWarning,
+                          stacklevel=3)
         return Resumed(state=state, steps=int(info["steps"]), peak=float(info["peak"]),
-                       at_rest=bool(info.get("at_rest", 0)), info=info)
+                       at_rest=bool(info.get("at_rest", 0)), info=info, other_code=other)
 
     def restore(self, resumed: Resumed, rec: "Recorder", stages: Stages) -> None:
         """Put the recorder's curves and the stages' counts back as they were saved."""
@@ -414,6 +445,9 @@ class RestCheckpoint:
         stages.non_converged = [int(v) for v in np.atleast_1d(info["non_converged"])]
         stages.resumed_from = [int(v) for v in np.atleast_1d(info.get("resumed_from", []))]
         stages.resumed_from.append(resumed.steps)
+        stages.other_code_at = [int(v) for v in np.atleast_1d(info.get("other_code_at", []))]
+        if resumed.other_code:
+            stages.other_code_at.append(resumed.steps)
         if stages.bar is not None:
             stages.bar.update(resumed.steps)
 

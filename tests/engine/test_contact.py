@@ -61,7 +61,7 @@ def test_cylinder_caps_are_optional():
     R, H, r = 0.01, 0.02, 1e-3
     for top in (False, True):
         s = Scene(gravity=(0, 0, 9.81))  # gravity upwards: pushes into the top cap
-        tube = s.add_cylinder(radius=R, height=H, bottom=True, top=top)
+        s.add_cylinder(radius=R, height=H, bottom=True, top=top)
         s.add_spheres([[0, 0, H - r]], r, density=2650.0)
         s.interact("sand", "wall", laws.Coulomb(mu=0.3))
         model, state = s.compile(dt=1e-4)

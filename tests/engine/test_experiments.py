@@ -1,6 +1,8 @@
 """The paper's deposit under gravity (§2.4) and three mechanical tests (§3.1-3.3) at a small
 scale."""
 
+import warnings
+
 import numpy as np
 import pytest
 
@@ -415,6 +417,52 @@ def test_a_checkpoint_that_is_not_this_runs_is_not_resumed(monkeypatch, tmp_path
         gravity_deposit(0.02, history=str(tmp_path / "c.h5"), sample="box", checkpoint_every=-1)
     with pytest.raises(ValueError, match="resume must be True or False"):
         gravity_deposit(0.02, history=str(tmp_path / "c.h5"), sample="box", resume="yes")
+
+
+def test_a_checkpoint_of_other_engine_code_is_resumed_with_a_warning(monkeypatch, tmp_path):
+    """A checkpoint keeps the fingerprint of the engine's code (``engine_code``). Resumed
+    under another (the engine edited between the two calls; here a patched fingerprint,
+    the code itself being the same), the run warns, goes on from the checkpoint, and lists
+    that step in ``convergence["resumed_with_other_code"]`` and in the sweep's scalars.
+    A resume under the same code lists nothing."""
+    import engine.experiments.common as common
+    from engine.io import load_extra
+    from engine.sweep import scalars_of
+
+    code = common.engine_code()
+    assert len(code) == 12 and int(code, 16) >= 0
+    kw = dict(sample="box", progress=False, checkpoint_every=100)
+    ref = gravity_deposit(0.02, history=str(tmp_path / "a.h5"), **kw)
+    with monkeypatch.context() as mp:
+        stop_runs_at(mp, 250, "sigint")
+        gravity_deposit(0.02, history=str(tmp_path / "b.h5"), **kw)
+    ck = tmp_path / "b.resume.h5"
+    assert load_extra(ck)["engine_code"] == code
+    with monkeypatch.context() as mp:
+        stop_runs_at(mp, 500, "sigint")
+        mp.setattr(common, "engine_code", lambda: "0123456789ab")
+        with pytest.warns(RuntimeWarning, match=rf"written by other engine code \({code}, "
+                                                r"now 0123456789ab\)"):
+            r = gravity_deposit(0.02, history=str(tmp_path / "b.h5"), resume=True, **kw)
+    assert r.convergence["resumed_with_other_code"] == [250]
+    # the second checkpoint was written under the patched code: resumed under the real one,
+    # the run warns again, and keeps the first step in the list
+    with pytest.warns(RuntimeWarning, match=r"other engine code \(0123456789ab, now"):
+        r = gravity_deposit(0.02, history=str(tmp_path / "b.h5"), resume=True, **kw)
+    assert r.convergence["resumed_from"] == [250, 500]
+    assert r.convergence["resumed_with_other_code"] == [250, 500]
+    assert scalars_of(r)["resumed_with_other_code"] == "250,500"
+    np.testing.assert_array_equal(r.kinetic_energy, ref.kinetic_energy)   # same code, in fact
+    with monkeypatch.context() as mp:
+        stop_runs_at(mp, 250, "sigint")
+        gravity_deposit(0.02, history=str(tmp_path / "c.h5"), **kw)
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        r = gravity_deposit(0.02, history=str(tmp_path / "c.h5"), resume=True, **kw)
+    assert not [w for w in caught if "engine code" in str(w.message)]
+    assert r.convergence["resumed_from"] == [250]
+    assert r.convergence["resumed_with_other_code"] == []
+    assert "resumed_with_other_code" not in scalars_of(r)
 
 
 def test_a_slope_deposit_resumes_bit_for_bit(monkeypatch, tmp_path):

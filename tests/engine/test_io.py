@@ -112,7 +112,7 @@ def test_checkpoint_round_trips_every_model_and_state_field(tmp_path):
     s.add_wire([[0, 0, 3.05e-3], [2.5e-3, 0, 3.05e-3], [5e-3, 0, 3.05e-3]], radius=1e-3, density=1e3,
                group="wire", law=laws.BrittleElasticWire(stiffness=3.0, prestrain=0.02,
                                                          max_tension=7.0))
-    floor = s.add_plane(group="wall")
+    s.add_plane(group="wall")
     piston = s.add_plane(point=(0, 0, 0.02), normal=(0, 0, -1), group="wall")
     side = s.add_plane(point=(-5e-3, 0, 0), normal=(1, 0, 0), group="side")
     ball = s.add_spheres([[0, 3e-3, 1e-3]], 1e-3, density=2650.0, group="ball")[0]

@@ -437,3 +437,18 @@ def test_an_interrupted_paper_run_is_not_recorded_as_done_and_resumes(tmp_path, 
     for row in (again, ref):             # in their own folders, in their own times
         row.pop("history"), row.pop("curves"), row.pop("steps_wall_time")
     assert again == ref
+
+
+def test_the_runs_table_says_when_a_run_resumed_under_other_engine_code(tmp_path):
+    """A run resumed from its checkpoint shows the step in its status; one resumed under
+    other engine code (``resumed_with_other_code``) says so, with the step."""
+    import workbench.paper as wp
+
+    rows = {"a": dict(params={"name": "a", "seed": 0}, status="done",
+                      result={"resumed_from": "900", "steps": 4000, "steps_wall_time": 9.0}),
+            "b": dict(params={"name": "b", "seed": 1}, status="done",
+                      result={"resumed_from": "30,60", "resumed_with_other_code": "60",
+                              "steps": 100})}
+    text = "\n".join(wp._run_lines(SCALES["tiny"], rows, {}, tmp_path))
+    assert "| a | done (resumed at step 900) | 0 |" in text
+    assert "| b | done (resumed at step 30, 60; at step 60 with other engine code) | 1 |" in text

@@ -309,6 +309,9 @@ def engine_code() -> str:
     return h.hexdigest()[:12]
 
 
+engine_code()   # at import: the code this process runs, not files edited while it runs
+
+
 @dataclass
 class Resumed:
     """A run to rest restored from its checkpoint (:meth:`RestCheckpoint.load`);

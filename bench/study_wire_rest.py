@@ -36,6 +36,9 @@ import record  # noqa: E402
 
 
 def _energies(model, state, beads, sand):
+    """Speeds [m/s] and the translational kinetic energy ½ m v² [J] of beads and sand (the
+    spin is left out, unlike engine.analysis.kinetic_energy: the beads' motion is the
+    question here)."""
     v = state.vel6[:, :3]
     speed = np.sqrt((v * v).sum(axis=1))
     m = model.body_mass
@@ -71,13 +74,11 @@ def one(path: str, tol: float, max_iter: int, warmup: int, steps: int) -> dict:
     speed, ke_beads, ke_sand = _energies(model, state, beads, sand)
     bead_speed = speed[beads]
     fast = bead_speed > 1e-3
-    # taut on either side: a bead's links by index
+    # taut on either side (beads is sorted: np.unique)
     taut_link = tension[-1] > 0.0
     on_taut = np.zeros(beads.size, bool)
-    where = {b: k for k, b in enumerate(beads)}
-    for l in np.where(taut_link)[0]:
-        on_taut[where[li[l]]] = True
-        on_taut[where[lj[l]]] = True
+    on_taut[np.searchsorted(beads, li[taut_link])] = True
+    on_taut[np.searchsorted(beads, lj[taut_link])] = True
     mean_speed = np.sqrt((vel * vel).sum(axis=2)).mean(axis=0)
     net = np.sqrt(((state.position[beads] - p0) ** 2).sum(axis=1))
     travel = net / np.maximum(mean_speed * steps * h, 1e-300)

@@ -10,6 +10,9 @@ STAMP  := $(VENV)/.installed
 #  ParaView's pvpython (tests/workbench/test_paraview.py reads every PVD with it).
 APT_RENDER   := libegl1 libegl-mesa0 libgl1-mesa-dri libosmesa6
 APT_PARAVIEW := paraview python3-paraview
+#  Chromium for the browser tests of `nscd view` (tests/workbench/test_view.py drives it with
+#  Playwright for Python through its executable_path: no browser download at run time).
+APT_BROWSER  := chromium
 
 .PHONY: install sysdeps test demo bench bench-peers clean
 
@@ -27,10 +30,10 @@ install: $(STAMP) sysdeps
 ## packages with --no-install-recommends), a few minutes on a slow mirror.
 sysdeps:
 	@if ! command -v dpkg-query >/dev/null 2>&1 || ! command -v apt-get >/dev/null 2>&1; then \
-	  echo "sysdeps: no dpkg/apt here; install EGL or OSMesa (Mesa) and ParaView yourself" \
+	  echo "sysdeps: no dpkg/apt here; install EGL or OSMesa (Mesa), ParaView and Chromium yourself" \
 	       "(the ParaView test skips without pvpython)"; exit 0; fi; \
 	missing=""; \
-	for p in $(APT_RENDER) $(APT_PARAVIEW); do \
+	for p in $(APT_RENDER) $(APT_PARAVIEW) $(APT_BROWSER); do \
 	  dpkg-query -W -f='$${Status}' $$p 2>/dev/null | grep -q "ok installed" || missing="$$missing $$p"; \
 	done; \
 	if [ -z "$$missing" ]; then exit 0; fi; \
@@ -40,7 +43,7 @@ sysdeps:
 	echo "sysdeps: apt-get install$$missing"; \
 	install="$$SUDO env DEBIAN_FRONTEND=noninteractive apt-get install -y -qq --no-install-recommends$$missing"; \
 	$$install >/dev/null || { $$SUDO apt-get update -qq && $$install >/dev/null; } || \
-	  echo "sysdeps: apt-get install failed; rendering or the ParaView test may not work"
+	  echo "sysdeps: apt-get install failed; rendering, the ParaView test or the browser tests may not work"
 
 ## make test: the test suite (numba compilation included), two workers
 test: $(STAMP) sysdeps

@@ -507,6 +507,22 @@ def history_run_id(path) -> str | None:
     return _reading(path, read)
 
 
+def history_meta(path) -> dict:
+    """What a history says of its run (the ``meta`` given to :class:`History`: the test's
+    name, its parameters, ``total_steps``); {} for a history written without it.  Reads a
+    history whose writer is still running or was killed (SWMR)."""
+    def read(f):
+        if _check_root(f, path) != "history":
+            raise _BadArgument(f"{path} is not a history")
+        raw = f.attrs.get("run_meta")
+        if raw is None:
+            return {}
+        out = json.loads(raw.decode() if isinstance(raw, bytes) else str(raw))
+        return out if isinstance(out, dict) else {}
+
+    return _reading(path, read)
+
+
 def file_content(path) -> tuple[str, int]:
     """What an nscd-workbench file holds: (``"checkpoint"`` or ``"history"``, format
     version).  FileNotFoundError or :class:`FormatError` (naming the file) otherwise."""
@@ -586,7 +602,7 @@ class History:
 
     def __init__(self, path, *, trigger: Callable[[int], bool] | int = 1, frames: int = 100,
                  flush: int | None = None, extra: dict | None = None,
-                 resume_step: int | None = None):
+                 resume_step: int | None = None, meta: dict | None = None):
         from .step import every
 
         self.path = os.fspath(path)
@@ -616,11 +632,18 @@ class History:
         self._recorded_step = self._framed_step = None
         self.n_records = 0
         self.n_frames = 0
+        if meta is not None:
+            try:
+                meta = json.dumps(meta, default=str, allow_nan=True)
+            except (TypeError, ValueError) as e:
+                raise ValueError(f"meta must be a JSON-serialisable dict: {e}") from None
         if resume_step is not None:
             self._reopen(int(resume_step))
             return
         self._file = h5py.File(self.path, "w", libver=LIBVER)
         _root_attrs(self._file, "history")
+        if meta is not None:
+            self._file.attrs["run_meta"] = meta
         #: a random id of this history (kept when it is resumed): what a checkpoint of the
         #: run checks it goes on with (``engine.experiments.common.RestCheckpoint``)
         self.run_id = uuid.uuid4().hex
@@ -952,9 +975,68 @@ def read_history(path, frames: bool = True) -> HistoryData:
     return _reading(path, read)
 
 
+def read_frame(path, frame: int = -1, model: Model | None = None) -> State:
+    """The state of one frame of a history, as :func:`load` rebuilds it, for a ``model``
+    read before (:func:`load_model`; read from the file when None): a viewer going through
+    the frames reads the model once.  Reads a history being written (SWMR)."""
+    def read(f):
+        _check_root(f, path, "history")
+        return _state_from_frame(f, model if model is not None else _read_model(f["model"]),
+                                 frame)
+
+    return _reading(path, read)
+
+
+def frame_index(path) -> tuple[np.ndarray, np.ndarray]:
+    """(steps, times [s]) of the frames fully written in a history (also while it is being
+    written: a frame half written is not counted)."""
+    def read(f):
+        _check_root(f, path, "history")
+        if "frames" not in f:
+            return np.zeros(0, np.int64), np.zeros(0)
+        fg = f["frames"]
+        m = _frame_count(fg)
+        return fg["step"][:m], fg["time"][:m]
+
+    return _reading(path, read)
+
+
+def frame_arrays(path, names, frames=None):
+    """Yield, frame by frame, ``{name: array}`` of the frame datasets ``names``:
+    ``position``, ``velocity``, ``spin`` (nb, 3), ``link_tension``, ``link_broken`` (nl,),
+    and the contacts' ``contact_i``, ``contact_j``, ``contact_normal``, ``contact_force``
+    (k, ...) of that frame.  ``frames``: the frame indices (default all fully written).
+    The file is open while the generator runs; one frame at a time is in memory (for
+    ranges over a whole history)."""
+    names = list(names)
+    bad = [n for n in names if n not in (*_FRAME_BODY, "link_tension", "link_broken")
+           and not (n.startswith("contact_") and n[8:] in _FRAME_CONTACT)]
+    if bad:
+        raise _BadArgument(f"frame_arrays: unknown array(s) {bad}")
+    f = _open_read(path)
+    try:
+        _check_root(f, path, "history")
+        if "frames" not in f:
+            return
+        fg = f["frames"]
+        m = _frame_count(fg)
+        start, count = fg["contact_start"][:m], fg["contact_count"][:m]
+        for k in (range(m) if frames is None else frames):
+            out = {}
+            for n in names:
+                if n.startswith("contact_"):
+                    a = int(start[k])
+                    out[n] = fg["contacts"][n[8:]][a:a + int(count[k])]
+                else:
+                    out[n] = fg[n][k]
+            yield out
+    finally:
+        f.close()
+
+
 def _state_from_frame(f, model: Model, frame: int) -> State:
     """A State rebuilt from a history frame (no warm start: not a restart point)."""
-    from .contact import tangent_frame
+    from .contact.narrowphase import tangent_frames
 
     if "frames" not in f:
         raise FormatError("the history holds no frame")
@@ -989,10 +1071,7 @@ def _state_from_frame(f, model: Model, frame: int) -> State:
     get = {name: cg[name][a:a + n] for name in _FRAME_CONTACT}
     c = ContactBuffers(max(64, n))
     c.i[:n], c.j[:n], c.sub[:n], c.gap[:n] = get["i"], get["j"], get["sub"], get["gap"]
-    for q in range(n):
-        nrm = get["normal"][q]
-        t = tangent_frame(nrm[0], nrm[1], nrm[2])
-        c.frame[q] = (*nrm, *t)
+    c.frame[:n] = tangent_frames(get["normal"])
     c.ri[:n] = model.body_radius[c.i[:n]]
     sph = model.body_kind[c.j[:n]] == SPHERE
     c.rj[:n] = np.where(sph, model.body_radius[c.j[:n]], 0.0)
@@ -1006,5 +1085,6 @@ def _state_from_frame(f, model: Model, frame: int) -> State:
 
 
 __all__ = ["save", "load", "load_model", "file_content", "History", "HistoryData",
-           "read_history", "history_run_id", "Checkpoint", "FormatError", "UnsavedCallable",
+           "read_history", "history_run_id", "history_meta", "read_frame", "frame_index",
+           "frame_arrays", "Checkpoint", "FormatError", "UnsavedCallable",
            "kinetic_energy", "wall_forces", "FORMAT_VERSION", "FORMAT_NAME"]

@@ -8,6 +8,9 @@
     nscd render RUN.h5 [--frame N] [--preset beads|wire|forces|torus] [--camera ...] [--out PNG]
     nscd export RUN.h5 OUTDIR                every frame of a history as VTU + a PVD
     nscd info RUN.h5                         what a checkpoint or history holds
+    nscd view PATH [--port N] [--host H] [--follow] [--mode server|client]
+                                             the interactive viewer in the browser: a
+                                             history, a checkpoint or a folder of runs
     nscd paper [--scale tiny|default|paper] [--out DIR] [--scheduler ADDRESS|serial]
                [--only CLAIMS] [--threads T] [--reuse-only | --runs NAME,NAME]
                                              reproduce the paper's §3: DIR/report.md, figures,
@@ -45,6 +48,7 @@ from pydantic import BaseModel, ConfigDict, Field, ValidationError, model_valida
 
 from engine.checks import NumbersOnly
 
+from .meshes import sample_cylinder  # noqa: F401  (numpy only; it lived here before)
 from .render import CAMERAS, PRESETS  # noqa: E402  (no PyVista import: it is lazy there)
 
 
@@ -311,20 +315,6 @@ def _n_frames(path) -> int:
     return io.read_history(path, frames=True).n_frames
 
 
-def sample_cylinder(model, state):
-    """The vertical cylinder about the z axis holding every sphere (for the torus preset
-    when the scene has no cylinder wall: a confined cylindrical sample)."""
-    import numpy as np
-
-    from engine.prep import Cylinder
-
-    ids = model.sphere_ids
-    x, r = state.position[ids], model.body_radius[ids]
-    z0 = float((x[:, 2] - r).min())
-    return Cylinder(float((np.hypot(x[:, 0], x[:, 1]) + r).max()),
-                    float((x[:, 2] + r).max()) - z0, center=(0.0, 0.0, z0))
-
-
 def render_frame(history, out, *, frame=-1, preset="beads", camera="iso", **options) -> Path:
     from engine import io
     from engine.model import CYLINDER
@@ -452,6 +442,24 @@ def cmd_export(a) -> int:
     return 0
 
 
+def cmd_view(a) -> int:
+    from .view import is_loopback, serve
+
+    if not is_loopback(a.host):
+        warnings.warn(f"--host {a.host} is not a loopback address: anyone who can reach this "
+                      f"machine on that interface can see the runs served", RuntimeWarning)
+    if a.port is not None and not 0 <= a.port <= 65535:
+        raise ValueError(f"--port {a.port}: a port is 0..65535 (0 or none: a free one)")
+
+    def announce(url):
+        print(f"nscd view: {url}  (Ctrl-C stops it)", flush=True)
+
+    serve(a.path, host=a.host, port=a.port or 0, follow=a.follow, mode=a.mode,
+          shots=a.shots, announce=announce)
+    print("nscd view: stopped", file=sys.stderr)
+    return INTERRUPTED   # the server runs until Ctrl-C or SIGTERM stops it
+
+
 def cmd_info(a) -> int:
     print(info(a.run))
     return 0
@@ -547,6 +555,29 @@ def parser() -> argparse.ArgumentParser:
     e.add_argument("outdir", help="directory for the VTU files and the PVD collection")
     e.add_argument("--name", default="frame", help="file stem")
     e.set_defaults(fn=cmd_export)
+    v = sub.add_parser("view", help="the interactive 3D viewer of a run (or a folder of runs) "
+                                    "in the browser", description=(
+        "Serve the interactive viewer on HOST:PORT and print its URL: rotate the sample, "
+        "scrub through the frames, toggle layers, colour by a field, clip, pick, and see "
+        "the run's curves (docs/view.md).  Nothing is written beside the input; "
+        "screenshots go to --shots."))
+    v.add_argument("path", help="a history (.h5), a checkpoint, or a folder of runs (a nscd "
+                                "sweep / nscd paper output, or any folder of histories)")
+    v.add_argument("--port", type=int, default=None, help="port (default: a free one)")
+    v.add_argument("--host", default="127.0.0.1",
+                   help="address to listen on (default 127.0.0.1; another one is reachable "
+                        "from other machines: a warning says so)")
+    v.add_argument("--follow", action="store_true",
+                   help="show a run that is still being written: new frames and curve points "
+                        "appear as they are flushed")
+    from .view.app import MODES
+    v.add_argument("--mode", choices=MODES, default="server",
+                   help="server: rendered on this machine with the pictures' pipeline "
+                        "(default, the faster at large sizes); client: rendered by the "
+                        "browser (vtk.js; spheres drawn as points)")
+    v.add_argument("--shots", default="out/view", help="folder of the screenshots "
+                                                       "(default out/view)")
+    v.set_defaults(fn=cmd_view)
     i = sub.add_parser("info", help="summarise a checkpoint or history file")
     i.add_argument("run", help="history or checkpoint file (.h5)")
     i.set_defaults(fn=cmd_info)

@@ -47,7 +47,8 @@ import numpy as np
 
 __all__ = ["Part", "BEAD_SAND", "BEAD_WIRE", "CONTACT_SAND_SAND", "CONTACT_SAND_WIRE",
            "CONTACT_WIRE_WIRE", "CONTACT_WALL", "bead_kind", "bead_part", "wire_part",
-           "contact_part", "wall_part", "scene_bounds", "fallen", "beads", "wire", "contacts",
+           "contact_part", "wall_part", "scene_bounds", "sample_cylinder", "fallen", "beads",
+           "wire", "contacts",
            "walls", "scene"]
 
 #: Bead ``kind`` codes.
@@ -271,6 +272,18 @@ def scene_bounds(model, state, *, free_only: bool = False) -> np.ndarray:
     if not np.all(np.isfinite(lo)):
         return np.array([[-1.0, -1.0, -1.0], [1.0, 1.0, 1.0]])
     return np.array([lo, hi])
+
+
+def sample_cylinder(model, state):
+    """The vertical cylinder about the z axis holding every sphere (for the torus preset
+    when the scene has no cylinder wall: a confined cylindrical sample)."""
+    from engine.prep import Cylinder
+
+    ids = model.sphere_ids
+    x, r = state.position[ids], model.body_radius[ids]
+    z0 = float((x[:, 2] - r).min())
+    return Cylinder(float((np.hypot(x[:, 0], x[:, 1]) + r).max()),
+                    float((x[:, 2] + r).max()) - z0, center=(0.0, 0.0, z0))
 
 
 def _basis(n: np.ndarray) -> tuple[np.ndarray, np.ndarray]:

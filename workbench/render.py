@@ -55,7 +55,7 @@ import numpy as np
 from . import meshes
 
 __all__ = ["PRESETS", "CAMERAS", "snapshot", "plotter", "theme", "set_camera", "add_beads",
-           "add_wire", "add_forces", "add_torus", "add_walls", "headless_backend"]
+           "add_wire", "add_forces", "add_torus", "add_walls", "headless_backend", "revolved_map"]
 
 PRESETS = ("beads", "wire", "forces", "torus")
 
@@ -395,8 +395,6 @@ def add_torus(pl, model, state, *, cylinder=None, tmap=None, n_r: int = 5, n_z: 
     is ``"equivalent"`` (‖dev σ‖ [Pa]) or ``"pressure"`` (−tr σ / 3 [Pa], compression
     positive).
     """
-    import pyvista as pv
-
     if tmap is None:
         from engine.analysis import toroidal_map
 
@@ -435,21 +433,34 @@ def add_torus(pl, model, state, *, cylinder=None, tmap=None, n_r: int = 5, n_z: 
     pl.camera.zoom(0.8)
 
     # right: revolved about the axis over `sweep` degrees
-    k = max(2, int(round(resolution * sweep / 360.0)))
-    th = np.deg2rad(np.linspace(0.0, float(sweep), k + 1))
-    rr, tt, zz = np.meshgrid(re_, th, ze, indexing="ij")
     c = np.asarray(tmap_center(cylinder, model, state), float)
-    grid = pv.StructuredGrid(c[0] + rr * np.cos(tt), c[1] + rr * np.sin(tt), c[2] + zz)
-    # cells of the structured grid in VTK order (r fastest, then θ, then z)
-    cell = np.asarray(values, float)[:, None, :].repeat(k, axis=1)  # (nr, k, nz)
-    grid.cell_data[title] = cell.ravel(order="F")
     pl.subplot(0, 1)
     pl.add_text(f"revolved ({sweep:g} deg)", font_size=10, color="black", position="upper_left")
-    pl.add_mesh(grid.extract_surface(algorithm="dataset_surface"), scalars=title, cmap=cmap,
-                clim=lim, nan_color=NAN_COLOR, show_scalar_bar=False, smooth_shading=False)
+    pl.add_mesh(revolved_map(values, re_, ze, c, title, sweep=sweep, resolution=resolution),
+                scalars=title, cmap=cmap, clim=lim, nan_color=NAN_COLOR, show_scalar_bar=False,
+                smooth_shading=False)
     lo = c - (re_[-1], re_[-1], 0.0)
     hi = c + (re_[-1], re_[-1], ze[-1])
     set_camera(pl, camera, bounds=np.array([lo, hi]))
+
+
+def revolved_map(values, r_edges, z_edges, center, name: str = "values", *,
+                 sweep: float = 270.0, resolution: int = 72):
+    """The surface of an axisymmetric (r, z) cell map revolved about the vertical axis
+    through ``center`` (the base centre [m]) over ``sweep`` degrees (cut open, so the inside
+    shows), ``values`` (nr, nz) as cell data ``name``: a :class:`pyvista.PolyData`."""
+    import pyvista as pv
+
+    re_, ze = np.asarray(r_edges, float), np.asarray(z_edges, float)
+    k = max(2, int(round(resolution * sweep / 360.0)))
+    th = np.deg2rad(np.linspace(0.0, float(sweep), k + 1))
+    rr, tt, zz = np.meshgrid(re_, th, ze, indexing="ij")
+    c = np.asarray(center, float)
+    grid = pv.StructuredGrid(c[0] + rr * np.cos(tt), c[1] + rr * np.sin(tt), c[2] + zz)
+    # cells of the structured grid in VTK order (r fastest, then θ, then z)
+    cell = np.asarray(values, float)[:, None, :].repeat(k, axis=1)  # (nr, k, nz)
+    grid.cell_data[name] = cell.ravel(order="F")
+    return grid.extract_surface(algorithm="dataset_surface")
 
 
 def axial_section(values, r_edges, z_edges, name: str = "values"):

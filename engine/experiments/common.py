@@ -529,12 +529,12 @@ def wire_before_after(chains0, chains1, volume) -> dict:
 
 def rest_recording(model, state, ids, *, history, record_every, frames, progress, steps,
                    desc, checkpoint: RestCheckpoint | None = None,
-                   resumed: Resumed | None = None):
+                   resumed: Resumed | None = None, meta: dict | None = None):
     """The writers and stages of a run to rest: a :class:`Recorder` of the time and the
     kinetic energy of ``ids`` [J], its HDF5 history, and the :class:`Stages` running both;
     returns (recorder, history, stages).  ``resumed``: the run goes on from that checkpoint
     (``state`` is its state): the history is reopened there and the curves and counts
-    restored."""
+    restored.  ``meta``: what the history says of the run (:func:`run_meta`)."""
     from ..analysis.energy import kinetic_energy
 
     rec = Recorder({"time": lambda m, s: s.time,
@@ -542,7 +542,8 @@ def rest_recording(model, state, ids, *, history, record_every, frames, progress
     if checkpoint is not None and resumed is None:
         checkpoint.remove()             # a fresh start: an old checkpoint is not of this run
     hist = history_writer(history, rec, {"time": "s", "kinetic_energy": "J"}, record_every,
-                          frames, resume_step=None if resumed is None else resumed.steps)
+                          frames, resume_step=None if resumed is None else resumed.steps,
+                          meta=meta)
     try:
         stages = Stages(model, state, [rec, hist], progress=progress, total=steps, desc=desc)
         if checkpoint is not None:
@@ -603,8 +604,25 @@ class Recorder:
         return np.asarray(self.rows[k])
 
 
+def run_meta(test: str, total_steps: int, **params) -> dict:
+    """What a test's history says of its run (:class:`engine.io.History` ``meta``): its
+    name, the steps it expects at most and its parameters, laws as their repr (what
+    ``nscd view`` lists beside each run)."""
+    def plain(v):
+        if v is None or isinstance(v, (bool, int, float, str)):
+            return v
+        if isinstance(v, (np.integer, np.floating, np.bool_)):
+            return v.item()
+        if isinstance(v, (list, tuple)):
+            return [plain(x) for x in v]
+        return repr(v)
+
+    return {"test": test, "total_steps": int(total_steps),
+            "params": {k: plain(v) for k, v in params.items()}}
+
+
 def history_writer(path, recorder: Recorder, units: dict, every: int, frames: int,
-                   resume_step: int | None = None):
+                   resume_step: int | None = None, meta: dict | None = None):
     """An :class:`engine.io.History` recording the recorder's latest values as extras, and a
     particle frame (positions, velocities, contacts) every ``frames`` steps, rounded up to a
     multiple of ``every`` (0: no frames): a frame is written with a record, whose values the
@@ -620,7 +638,7 @@ def history_writer(path, recorder: Recorder, units: dict, every: int, frames: in
     extra = {k: ((lambda m, s, k=k: recorder.last[k]), units.get(k, "-")) for k in recorder.fns
              if k not in HISTORY_SCALARS}       # time, step ... are recorded by History itself
     h = History(path, trigger=lambda step: recorder.trigger(step), frames=frames, extra=extra,
-                flush=max(every, 1), resume_step=resume_step)
+                flush=max(every, 1), resume_step=resume_step, meta=meta)
     return h
 
 

@@ -14,7 +14,7 @@ from ..prep import Box, Cylinder, paper_sample
 from ..prep.relax import kinetic_energy
 from ..scene import Scene
 from .common import (RestCheckpoint, RestResult, check_bool, check_rest_run, check_scale,
-                     deposit_laws, finish, rest_recording, rest_summary, run_identity,
+                     deposit_laws, finish, rest_recording, run_meta, rest_summary, run_identity,
                      run_to_rest, solver_choice, wire_before_after, wire_law_or_default)
 
 __all__ = ["gravity_deposit", "DepositResult", "SAMPLES"]
@@ -145,7 +145,14 @@ def gravity_deposit(scale: float = 0.05, *, sample: str = "slope", wire: bool = 
     rec, hist, stages = rest_recording(model, state, sand, history=history,
                                        record_every=record_every, frames=frames,
                                        progress=progress, steps=steps, desc="gravity deposit",
-                                       checkpoint=ckpt, resumed=resumed)
+                                       checkpoint=ckpt, resumed=resumed,
+                                       meta=run_meta(
+                                           "gravity_deposit", steps, scale=scale, seed=seed,
+                                           sample=sample, wire=wire, wire_density=wire_density,
+                                           wire_law=law, neighbour_contact=neighbour_contact,
+                                           dt=dt, theta=theta, tol=tol, max_iter=max_iter,
+                                           mu=mu, mu_wall=mu_wall, mu_wire=mu_wire, steps=steps,
+                                           ke_fraction=ke_fraction))
     try:
         if resumed is None:
             rec.write(model, state)      # the geometric sample: step 0, record and frame

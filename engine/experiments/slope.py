@@ -14,7 +14,7 @@ from ..prep import slope_sample
 from ..prep.relax import kinetic_energy
 from ..scene import Scene
 from .common import (RestCheckpoint, RestResult, check_bool, check_positive, check_rest_run,
-                     check_scale, deposit_laws, finish, rest_recording, rest_summary,
+                     check_scale, deposit_laws, finish, rest_recording, rest_summary, run_meta,
                      run_identity, run_to_rest, solver_choice, wire_before_after,
                      wire_law_or_default)
 
@@ -152,7 +152,14 @@ def slope_deposit(scale: float = 0.02, *, wire: bool = True, wire_density: float
     rec, hist, stages = rest_recording(model, state, ids, history=history,
                                        record_every=record_every, frames=frames,
                                        progress=progress, steps=steps, desc="slope deposit",
-                                       checkpoint=ckpt, resumed=resumed)
+                                       checkpoint=ckpt, resumed=resumed,
+                                       meta=run_meta(
+                                           "slope_deposit", steps, scale=scale, seed=seed,
+                                           wire=wire, wire_density=wire_density, wire_law=law,
+                                           neighbour_contact=neighbour_contact, dt=dt,
+                                           theta=theta, tol=tol, max_iter=max_iter, mu=mu,
+                                           mu_floor=mu_floor, mu_wire=mu_wire, steps=steps,
+                                           ke_fraction=ke_fraction))
     def energy():
         # grains that rolled off the floor's edge fall for good: not in the criterion
         on_floor = np.asarray(sand)[state.position[sand, 2] >= 0.0]

@@ -43,7 +43,8 @@ from ..drivers import Confinement
 from ..prep import Box, Cylinder, box_sample, cylinder_sample
 from ..scene import Scene
 from .common import (ConfinementError, Recorder, Stages, TestResult, check_positive, check_scale,
-                     choose_rate, finish, history_writer, solver_choice, wire_law_or_default)
+                     choose_rate, finish, history_writer, run_meta, solver_choice,
+                     wire_law_or_default)
 
 __all__ = ["cylinder_triaxial", "box_triaxial"]
 
@@ -229,14 +230,18 @@ def cylinder_triaxial(scale: float = 0.05, *, pressure: float = 15e3, wire: bool
         H = state.position[top, 2] - state.position[floor, 2]
         stage_of.append(stage["value"])
         return dict(stress=tot, sand_stress=sand_s, wire_stress=wire_s, height=H, volume=V,
-                    radius=conf.radius, time=state.time, step=state.step)
+                    radius=conf.radius, stage=stage["value"], time=state.time, step=state.step)
 
     rec = _SplitRecorder(sample_values, record_every)
     units = dict(stress="Pa", sand_stress="Pa", wire_stress="Pa", height="m", volume="m^3",
-                 radius="m", time="s", step="-")
-    hist = history_writer(history, rec, units, record_every, frames)
+                 radius="m", stage="-", time="s", step="-")
     H0 = top_z
     est_steps = iso_max_steps + int(eps_max / (rate * dt)) + 1
+    hist = history_writer(history, rec, units, record_every, frames, meta=run_meta(
+        "cylinder_triaxial", est_steps, scale=scale, seed=seed, pressure=p, wire=wire,
+        wire_law=law, neighbour_contact=neighbour_contact, axial_strain=eps_max,
+        strain_rate=rate, dt=dt, theta=theta, tol=tol, max_iter=max_iter, mu=mu,
+        mu_wall=mu_wall, mu_wire=mu_wire))
     stages = Stages(model_iso, state, [rec, hist], progress=progress, total=est_steps,
                     desc="cylinder triaxial")
     maps = {}
@@ -370,7 +375,7 @@ class _SplitRecorder(Recorder):
         self.fn = fn
         self.rows = {}
         self.fns = {k: None for k in ("stress", "sand_stress", "wire_stress", "height",
-                                      "volume", "radius", "time", "step")}
+                                      "volume", "radius", "stage", "time", "step")}
 
     def write(self, model, state):
         self.written_step = state.step
@@ -524,18 +529,23 @@ def box_triaxial(scale: float = 0.05, *, pressure: float = 15e3, wire: bool = Tr
         return dict(stress=sand_s + wire_s, sand_stress=sand_s, wire_stress=wire_s,
                     wire_stress_upper=halves[0], wire_stress_lower=halves[1],
                     wall_stress=wall_sigma(model, state), height=H, volume=V,
-                    radius=0.0, time=state.time, step=state.step, position=None)
+                    radius=0.0, stage=stage["value"], time=state.time, step=state.step,
+                    position=None)
 
     rec = _SplitRecorder(lambda m, s: {k: v for k, v in sample_values(m, s).items()
                                        if k != "position"}, record_every)
     rec.fns = {k: None for k in ("stress", "sand_stress", "wire_stress", "wire_stress_upper",
                                  "wire_stress_lower", "wall_stress", "height", "volume",
-                                 "radius", "time", "step")}
+                                 "radius", "stage", "time", "step")}
     units = dict(stress="Pa", sand_stress="Pa", wire_stress="Pa", wire_stress_upper="Pa",
                  wire_stress_lower="Pa", wall_stress="Pa", height="m", volume="m^3",
-                 radius="m", time="s", step="-")
-    hist = history_writer(history, rec, units, record_every, frames)
+                 radius="m", stage="-", time="s", step="-")
     est_steps = iso_max_steps + int(eps_max / (rate * dt)) + 1
+    hist = history_writer(history, rec, units, record_every, frames, meta=run_meta(
+        "box_triaxial", est_steps, scale=scale, seed=seed, pressure=p, wire=wire,
+        wire_law=law, neighbour_contact=neighbour_contact, axial_strain=eps_max,
+        strain_rate=rate, dt=dt, theta=theta, tol=tol, max_iter=max_iter, mu=mu,
+        mu_wall=mu_wall, mu_wire=mu_wire))
     stages = Stages(_compaction(model, compaction_mu), state, [rec, hist], progress=progress,
                     total=est_steps, desc="box triaxial")
     strains = {}

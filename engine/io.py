@@ -975,14 +975,17 @@ def read_history(path, frames: bool = True) -> HistoryData:
     return _reading(path, read)
 
 
-def read_frame(path, frame: int = -1, model: Model | None = None) -> State:
+def read_frame(path, frame: int = -1, model: Model | None = None, *,
+               contacts: bool = True) -> State:
     """The state of one frame of a history, as :func:`load` rebuilds it, for a ``model``
     read before (:func:`load_model`; read from the file when None): a viewer going through
-    the frames reads the model once.  Reads a history being written (SWMR)."""
+    the frames reads the model once.  ``contacts=False`` leaves the frame's contacts out
+    (the state has none; a paper-scale frame's 90 000 contacts are most of its reading
+    time).  Reads a history being written (SWMR)."""
     def read(f):
         _check_root(f, path, "history")
         return _state_from_frame(f, model if model is not None else _read_model(f["model"]),
-                                 frame)
+                                 frame, contacts)
 
     return _reading(path, read)
 
@@ -1034,8 +1037,9 @@ def frame_arrays(path, names, frames=None):
         f.close()
 
 
-def _state_from_frame(f, model: Model, frame: int) -> State:
-    """A State rebuilt from a history frame (no warm start: not a restart point)."""
+def _state_from_frame(f, model: Model, frame: int, contacts: bool = True) -> State:
+    """A State rebuilt from a history frame (no warm start: not a restart point);
+    ``contacts=False``: without the frame's contacts (none are read)."""
     from .contact.narrowphase import tangent_frames
 
     if "frames" not in f:
@@ -1067,6 +1071,8 @@ def _state_from_frame(f, model: Model, frame: int) -> State:
     state.link_excluded_next = model.body_next.copy()
     state.link_excluded_next[model.link_i[state.link_broken]] = -1
     a, n = int(fg["contact_start"][k]), int(fg["contact_count"][k])
+    if not contacts:
+        n = 0
     cg = fg["contacts"]
     get = {name: cg[name][a:a + n] for name in _FRAME_CONTACT}
     c = ContactBuffers(max(64, n))

@@ -4,7 +4,8 @@
 
     nscd demo [--out DIR] [--scale S]        a small TexSol cylinder triaxial test -> DIR/run.h5,
                                              PNG snapshots and figures, a ParaView series
-    nscd run CONFIG.toml [--out DIR]         a test from a validated TOML file
+    nscd run CONFIG.toml [--out DIR] [--view]  a test from a validated TOML file (--view: and
+                                             its live viewer)
     nscd render RUN.h5 [--frame N] [--preset beads|wire|forces|torus] [--camera ...] [--out PNG]
     nscd export RUN.h5 OUTDIR                every frame of a history as VTU + a PVD
     nscd info RUN.h5                         what a checkpoint or history holds
@@ -405,7 +406,11 @@ def cmd_demo(a) -> int:
         paths.append(render_frame(res.history, out / f"{preset}.png", preset=preset))
     pvd = export_series(res.history, out / "series", name="cylinder")
     print("wrote:\n  " + "\n  ".join(str(p) for p in [out / "run.h5", *paths, pvd]))
-    return _interrupted(res, "demo")
+    code = _interrupted(res, "demo")
+    if code == 0:
+        print(f"explore it in 3D (rotate, scrub the frames, clip, pick; in a browser):\n"
+              f"  nscd view {out / 'run.h5'}     (.venv/bin/nscd from a fresh clone)")
+    return code
 
 
 def cmd_run(a) -> int:
@@ -415,10 +420,22 @@ def cmd_run(a) -> int:
         print(f"nscd run: {e}", file=sys.stderr)
         return 2
     out = Path(a.out or Path("out") / Path(a.config).stem)
-    res = run_config(cfg, params, out)
-    print(res)
-    print("wrote:\n  " + "\n  ".join(str(p) for p in [res.history, *figures_of(res, out)]))
-    return _interrupted(res, "run")
+    beside = None
+    if a.view:
+        from .view.live import ViewerBeside
+
+        beside = ViewerBeside(out / "run.h5", announce=lambda m: print(m, flush=True)).start()
+    try:
+        res = run_config(cfg, params, out)
+        print(res)
+        print("wrote:\n  " + "\n  ".join(str(p) for p in [res.history, *figures_of(res, out)]))
+        code = _interrupted(res, "run")
+        if beside is not None and code == 0:
+            beside.wait()
+    finally:
+        if beside is not None:
+            beside.close()
+    return code
 
 
 def _interrupted(res, command) -> int:
@@ -540,6 +557,10 @@ def parser() -> argparse.ArgumentParser:
                        epilog=config_help(), formatter_class=argparse.RawDescriptionHelpFormatter)
     r.add_argument("config", help="TOML file (its keys below)")
     r.add_argument("--out", help="output directory (default out/<config stem>)")
+    r.add_argument("--view", action="store_true",
+                   help="start the viewer (nscd view RUN.h5 --follow, its own process) as soon "
+                        "as the run has a frame, print its URL, and keep it after the run "
+                        "until Ctrl-C")
     r.set_defaults(fn=cmd_run)
     g = sub.add_parser("render", help="render one frame of a run to PNG (off-screen)")
     g.add_argument("run", help="history (.h5) or checkpoint")

@@ -4,8 +4,9 @@
 
 The cylinder of :func:`tests.workbench.scenes.texsol_cylinder` (300 sand grains, a closed
 wire ring of 48 beads) settling under gravity, a history record every step and a frame
-every ``F`` steps; ``--pause`` seconds after each frame (a slow run, for ``nscd view
---follow`` to watch).  Prints ``frame K`` after each frame is flushed.
+every ``F`` steps (and of the initial state); ``--pause`` seconds after each frame (a
+slow run, for ``nscd view --follow`` to watch).  Prints ``frame K`` after each frame is
+flushed, and ``done T s`` at the end (T: the wall time of the run, writing included).
 """
 from __future__ import annotations
 
@@ -45,12 +46,14 @@ def main(argv=None):
     a.add_argument("--n-sand", type=int, default=300)
     args = a.parse_args(argv)
     model, state, _ = texsol_cylinder(n_sand=args.n_sand, steps=0, max_iter=1000)
+    t0 = time.perf_counter()
     with History(args.out, frames=args.frames,
                  meta={"test": "follow_run", "total_steps": args.steps,
                        "params": {"n_sand": args.n_sand}}) as h:
+        h.write(model, state)                    # frame 0: the initial state
         run(model, state, args.steps, writers=[h, _Pause(args.frames, args.pause)],
             progress=False)
-    print("done", flush=True)
+    print(f"done {time.perf_counter() - t0:.4f} s", flush=True)
 
 
 if __name__ == "__main__":

@@ -388,3 +388,37 @@ def test_a_folder_of_runs_is_listed(tmp_path, history):
     assert [r.name for r in runs] == ["a/one.h5", "two.h5"]
     assert all(r.test == "follow_run" and r.status == "complete" for r in runs)
     assert runs[0].params == {"n_sand": 300}
+
+
+def test_notebook_viewer_cell_shows_the_app(tmp_path):
+    """notebooks/explore.ipynb under nbclient: the viewer cell's output is the app (an iframe
+    to its server), and that server answers while the kernel runs."""
+    import urllib.request
+
+    import nbclient
+    import nbformat
+
+    book = nbformat.read(ROOT / "notebooks" / "explore.ipynb", as_version=4)
+    client = nbclient.NotebookClient(book, timeout=600, kernel_name="python3",
+                                     resources={"metadata": {"path": str(tmp_path)}})
+    served = []
+    with client.setup_kernel():
+        for i, cell in enumerate(book.cells):
+            if cell.cell_type != "code":
+                continue
+            client.execute_cell(cell, i)
+            for o in cell.get("outputs", []):
+                html = o.get("data", {}).get("text/html", "")
+                m = re.search(r'<iframe src="(http://127\.0\.0\.1:\d+/)"', html)
+                if m:   # the server task starts listening once the cell has returned
+                    def get(url=m.group(1)):
+                        with urllib.request.urlopen(url, timeout=30) as r:
+                            return r.status, b"<html" in r.read(2000).lower()
+                    served.append(wait_until(get, timeout=60, what="the notebook's server"))
+    errors = [o for c in book.cells if c.cell_type == "code" for o in c.get("outputs", [])
+              if o.get("output_type") == "error"]
+    assert not errors, errors
+    assert served == [(200, True)]
+    pngs = [o for c in book.cells for o in c.get("outputs", [])
+            if "image/png" in o.get("data", {})]
+    assert pngs, "the screenshot cell shows no picture"

@@ -28,6 +28,12 @@ from .source import FIELDS, RunSource, ViewInputError, curves_of
 __all__ = ["Viewer", "MODES", "SPEEDS"]
 
 MODES = ("server", "client")
+#: Seconds between two tries to push a rendered image still being encoded (trame-vtk: 0.5).
+STALE_RETRY_S = 0.02
+#: ... and at most this many tries (2 s).
+STALE_RETRIES = 100
+#: Frame states kept in memory (about 20 MB each at the paper's scale with contacts).
+CACHED_FRAMES = 8
 #: Play speeds [frames per second].
 SPEEDS = (1, 2, 5, 10, 20)
 
@@ -93,7 +99,7 @@ class Viewer:
         self.state, self.ctrl = self.server.state, self.server.controller
         self.source = None
         self.scene = None
-        self._state_cache = (None, None)
+        self._states = {}                    # (frame, with contacts) -> State
         self._rate = []                      # (wall time, step) of the followed run
         self._tasks = []
         self._last_render = 0.0
@@ -114,10 +120,12 @@ class Viewer:
             render.headless_backend()
             pl = pv.Plotter(off_screen=True, window_size=list(self.window_size),
                             theme=render.theme())
-            self.scene = ViewScene(source.model, plotter=pl)
+            self.scene = ViewScene(source.model, plotter=pl,
+                                   spheres="gaussian" if self.mode == "server" else "points")
         else:
             self.scene.plotter.clear_actors()
-            self.scene.plotter.remove_scalar_bar() if self.scene.plotter.scalar_bars else None
+            for title in list(self.scene.plotter.scalar_bars.keys()):
+                self.scene.plotter.remove_scalar_bar(title, render=False)
             self.scene.model = source.model
             self.scene.bounds = None
         m = source.model
@@ -128,15 +136,29 @@ class Viewer:
             self.scene.cylinder = "sample"
         else:
             self.scene.cylinder = None
-        self._state_cache = (None, None)
+        self._states = {}
         self._curves = curves_of(source.records, source.meta) if source.records is not None \
             else None
         self._rate = []
 
+    def _needs_contacts(self) -> bool:
+        s = self.state
+        return bool(s.layer_forces) or FIELDS.get(s.color_by, ("",))[0] == "contacts"
+
     def _frame_state(self, k: int):
-        if self._state_cache[0] != k:
-            self._state_cache = (k, self.source.state(k))
-        return self._state_cache[1]
+        """Frame ``k``'s State, read once (the last :data:`CACHED_FRAMES` are kept: going
+        back and forth costs no reading); without its contacts unless a layer shows them."""
+        key = (int(k), self._needs_contacts())
+        cache = self._states
+        if key not in cache and (int(k), True) in cache:
+            key = (int(k), True)                       # a state with contacts serves too
+        if key in cache:
+            cache[key] = cache.pop(key)                # most recently used last
+            return cache[key]
+        cache[key] = self.source.state(k, contacts=key[1])
+        while len(cache) > CACHED_FRAMES:
+            cache.pop(next(iter(cache)))
+        return cache[key]
 
     # ---------------------------------------------------------------- state -> scene
     def options(self) -> ViewOptions:
@@ -179,9 +201,15 @@ class Viewer:
         else:
             s.clim_shown = "this frame's" if self.scene.bar else ""
         s.shown_step = int(st.step)
+        t1 = time.perf_counter()
         self._update_curves(k)
+        t2 = time.perf_counter()
         self.ctrl.view_update()
-        self._render_times.append(time.perf_counter() - t0)
+        t3 = time.perf_counter()
+        self._render_times.append(t3 - t0)
+        #: the last redraw's cost [ms]: scene, curves, image push (shown for benchmarks)
+        s.redraw_ms = [round(1e3 * (t1 - t0), 1), round(1e3 * (t2 - t1), 1),
+                       round(1e3 * (t3 - t2), 1)]
 
     def _frame_info(self, k, st) -> str:
         parts = [f"frame {k + 1} / {self.source.n_frames}", f"step {st.step}",
@@ -313,10 +341,37 @@ class Viewer:
         self.state.progress = txt
 
     def _on_ready(self, **_):
+        self._fast_images()
         loop = asyncio.get_event_loop()
         self._tasks.append(loop.create_task(self._play()))
         if self.follow:
             self._tasks.append(loop.create_task(self._follow()))
+
+    def _fast_images(self) -> None:
+        """VTK's web image delivery encodes JPEGs on a thread: a push that finds the new
+        image still being encoded sends the previous one and tries again after
+        ``delta_stale_time_before_render`` (0.5 s in trame-vtk 2.11), so every frame change
+        showed the previous frame for half a second (measured: 0.8 s from the key press to
+        the new picture for the demo's run, bench/bench_view.py).  Here the retry comes
+        every :data:`STALE_RETRY_S` until the new image is out (at most
+        :data:`STALE_RETRIES` times; trame-vtk's own chain of retries stops after one short
+        retry).  Only attributes of trame-vtk's protocol are set; without them (another
+        trame-vtk), its own behaviour stays."""
+        proto = getattr(self.server, "protocol", None)
+        links = getattr(proto, "getLinkProtocols", lambda: [])() if proto else []
+        for p in links:
+            if not all(hasattr(p, a) for a in ("delta_stale_time_before_render", "push_render",
+                                                "stale_handler_count", "last_stale_time")):
+                continue
+
+            def retry(v_id, stale_count=0, p=p):
+                if p.stale_handler_count.get(v_id, 0) > 0:
+                    p.stale_handler_count[v_id] -= 1
+                    if p.last_stale_time.get(v_id, 0) != 0 and stale_count < STALE_RETRIES:
+                        p.push_render(v_id, False, stale_count + 1)
+
+            p.delta_stale_time_before_render = STALE_RETRY_S
+            p.render_stale_image = retry
 
     # ---------------------------------------------------------------- UI
     def _build_ui(self) -> None:
@@ -334,6 +389,7 @@ class Viewer:
             color_title="", log_scale=False, clip_axis="none", clip_offset=0.5,
             clip_flip=False, clip_wire=False, ghost=False, strong=1.0, weak=False,
             picked=[], picked_raw=None, message="", progress="", run_index=0,
+            redraw_ms=[0, 0, 0],
             run_title=src.name, show_curves=True, has_curves=self._curves is not None,
             follow=self.follow,
             runs=[{"title": r.label(), "value": i} for i, r in enumerate(self.runs)],
@@ -361,6 +417,11 @@ class Viewer:
         @s.change(*watched)
         def _changed(**_):
             self.redraw()
+
+        @s.change("show_curves")
+        def _curves_shown(show_curves, **_):
+            if show_curves:
+                self._update_curves(int(s.frame))
 
         @s.change("run_index")
         def _run(run_index, **_):
@@ -417,6 +478,9 @@ class Viewer:
                     for k, label in LAYERS.items():
                         v3.VCheckbox(v_model=(f"layer_{k}",), label=label, density="compact",
                                      hide_details=True, id=f"layer-{k}")
+                    v3.VCheckbox(v_model=("show_curves",), label="curves panel",
+                                 density="compact", hide_details=True, id="show-curves",
+                                 v_show="has_curves")
                     v3.VDivider(classes="my-2")
                     html.Div("Colour", classes="text-subtitle-2")
                     v3.VSelect(v_model=("color_by",), items=("fields",), density="compact",
@@ -460,6 +524,9 @@ class Viewer:
                     with html.Div(id="picked", classes="text-caption"):
                         html.Div("{{ line }}", v_for="line in picked", key="line")
                     html.Div("{{ message }}", id="message", classes="text-caption text-grey")
+                    html.Div("redraw {{ redraw_ms[0] }} + curves {{ redraw_ms[1] }} + image "
+                             "{{ redraw_ms[2] }} ms", id="redraw-ms",
+                             classes="text-caption text-grey", style="font-size: 10px")
             with layout.content:
                 with html.Div(style="display: flex; flex-direction: column; height: "
                                     "calc(100vh - 64px);"):

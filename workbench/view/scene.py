@@ -89,10 +89,16 @@ class ViewScene:
     """The layers of a frame in an off-screen :class:`pyvista.Plotter` (``plotter``,
     whose render window the browser shows) with :func:`workbench.render.theme`."""
 
-    def __init__(self, model, *, window_size=render.WINDOW_SIZE, plotter=None):
+    def __init__(self, model, *, window_size=render.WINDOW_SIZE, plotter=None,
+                 spheres: str = "gaussian"):
         render.headless_backend()
         import pyvista as pv
 
+        if spheres not in ("gaussian", "points"):
+            raise ValueError(f"spheres must be 'gaussian' or 'points', got {spheres!r}")
+        #: "gaussian": point-Gaussian impostors at the true radius (VTK); "points": round
+        #: points of a fixed size in pixels (what vtk.js can draw: ``--mode client``)
+        self.spheres = spheres
         self.model = model
         self.plotter = plotter if plotter is not None else pv.Plotter(
             off_screen=True, window_size=list(window_size), theme=render.theme())
@@ -137,7 +143,8 @@ class ViewScene:
         layer_of = FIELDS[color_by][0]
         self.bar = None
         self._drawn = {}
-        pl.remove_scalar_bar() if pl.scalar_bars else None
+        for title in list(pl.scalar_bars.keys()):
+            pl.remove_scalar_bar(title, render=False)
         arrays = state_arrays(model, state)
 
         def limits(values):
@@ -194,6 +201,10 @@ class ViewScene:
                 kw = dict(color=render.WIRE_COLOR, show_scalar_bar=False)
             if name == "sand" and opts.ghost:
                 self._ghost(part, kw)
+            elif self.spheres == "points":
+                pl.add_mesh(part.to_polydata(), style="points", name=name,
+                            point_size=self._point_px(part), render_points_as_spheres=True,
+                            **kw)
             else:
                 render._spheres(pl, part, name, **kw)
 
@@ -280,6 +291,14 @@ class ViewScene:
         if first or reset_camera:
             self.set_camera("iso")
 
+    def _point_px(self, part) -> float:
+        """The size [px] of a point drawing a bead of the mean radius, for the window and
+        the framing of the scene's box (the camera presets' distance)."""
+        h = float(self.plotter.window_size[1])
+        size = float(np.linalg.norm(self.bounds[1] - self.bounds[0])) or 1.0
+        r = float(np.mean(part.point_data["radius"]))
+        return max(2.0, min(40.0, 2.0 * r / size * h * 1.1))
+
     def _ghost(self, part, kw):
         """Sand translucent: low-resolution polygon spheres (see module doc)."""
         import pyvista as pv
@@ -303,10 +322,19 @@ class ViewScene:
             tmap = toroidal_map(self.model, state, cyl, n_r=5, n_z=10, part="wire")
         except ValueError:
             return
-        surf = render.revolved_map(tmap.equivalent, tmap.r_edges, tmap.z_edges, cyl.center,
-                                   "eq. stress [Pa]", sweep=270.0)
-        self.plotter.add_mesh(surf, scalars="eq. stress [Pa]", cmap="viridis", name="torus",
-                              nan_color=render.NAN_COLOR, opacity=0.6, show_scalar_bar=False)
+        vals = np.asarray(tmap.equivalent, float)
+        top = float(np.nanmax(vals)) if np.isfinite(vals).any() else 1.0
+        factor, unit = reading_unit("Pa", top)
+        title = f"wire eq. stress, torus [{unit}]"
+        surf = render.revolved_map(vals * factor, tmap.r_edges, tmap.z_edges, cyl.center,
+                                   title, sweep=270.0)
+        bar = render._bar(title, vertical=False, position_x=0.05, position_y=0.04, width=0.4,
+                          height=0.07, n_labels=3)
+        bar["title"] = title          # horizontal: no lifting newline
+        self.plotter.add_mesh(surf, scalars=title, cmap="viridis", name="torus",
+                              clim=(0.0, top * factor if top > 0 else 1.0),
+                              nan_color=render.NAN_COLOR, opacity=0.6, show_scalar_bar=True,
+                              scalar_bar_args=bar)
 
     def set_camera(self, camera="iso") -> None:
         """A camera preset of :data:`workbench.render.CAMERAS`, framing the scene's first

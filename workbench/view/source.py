@@ -285,13 +285,14 @@ class RunSource:
         self.frame_step, self.frame_time, self.records = steps, times, rec
         return new
 
-    def state(self, k: int):
-        """The State of frame ``k`` (:func:`engine.io.read_frame`)."""
+    def state(self, k: int, *, contacts: bool = True):
+        """The State of frame ``k`` (:func:`engine.io.read_frame`; ``contacts=False``:
+        without its contacts, cheaper)."""
         from engine import io
 
         if self.content == "checkpoint":
             return self._checkpoint_state
-        return io.read_frame(self.path, int(k), self.model)
+        return io.read_frame(self.path, int(k), self.model, contacts=contacts)
 
     def field_range(self, name: str) -> tuple[float, float]:
         """(min, max) of colour field ``name`` over every frame read so far (read once;

@@ -471,6 +471,11 @@ def cmd_view(a) -> int:
     def announce(url):
         print(f"nscd view: {url}  (Ctrl-C stops it)", flush=True)
 
+    if a.follow:
+        # a run is being written beside it: Mesa's llvmpipe renders on one thread, so the
+        # viewer leaves the other cores to the writer (unless the caller chose)
+        os.environ.setdefault("LP_NUM_THREADS", "1")
+
     serve(a.path, host=a.host, port=a.port or 0, follow=a.follow, mode=a.mode,
           shots=a.shots, announce=announce)
     print("nscd view: stopped", file=sys.stderr)

@@ -6,7 +6,8 @@ The cylinder of :func:`tests.workbench.scenes.texsol_cylinder` (300 sand grains,
 wire ring of 48 beads) settling under gravity, a history record every step and a frame
 every ``F`` steps (and of the initial state); ``--pause`` seconds after each frame (a
 slow run, for ``nscd view --follow`` to watch).  Prints ``frame K`` after each frame is
-flushed, and ``done T s`` at the end (T: the wall time of the run, writing included).
+flushed (with the wall-clock time, ``time.time()``), and ``done T s`` at the end (T: the
+wall time of the run, writing included).
 """
 from __future__ import annotations
 
@@ -32,7 +33,7 @@ class _Pause:
         return step % self.every == 0
 
     def write(self, model, state):
-        print(f"frame {state.step // self.every}", flush=True)
+        print(f"frame {state.step // self.every} {time.time():.4f}", flush=True)
         if self.pause:
             time.sleep(self.pause)
 

@@ -422,3 +422,33 @@ def test_notebook_viewer_cell_shows_the_app(tmp_path):
     pngs = [o for c in book.cells for o in c.get("outputs", [])
             if "image/png" in o.get("data", {})]
     assert pngs, "the screenshot cell shows no picture"
+
+
+@needs_browser
+def test_a_folder_lists_its_runs_and_names_stay_text(browser, tmp_path, history):
+    import shutil
+
+    (tmp_path / "a").mkdir()
+    shutil.copy(history, tmp_path / "a" / "first.h5")
+    odd = '<img id="x" src="q"> & <b>bold.h5'
+    shutil.copy(history, tmp_path / odd)
+    (tmp_path / "notes.h5").write_text("not a run")
+    p, url = start_view(tmp_path)
+    try:
+        pg = browser.new_page(viewport={"width": 1400, "height": 900})
+        pg.goto(url)
+        pg.wait_for_selector("#view3d canvas", timeout=60000)
+        wait_until(lambda: "step" in text(pg, "#frame-info"))
+        bar = pg.locator("header")
+        assert odd in bar.inner_text()                 # the first run, its name as text
+        assert pg.locator("#x").count() == 0            # no element made from a name
+        pg.locator("#run-select").locator(
+            "xpath=ancestor::div[contains(@class, 'v-field ')][1]").click()
+        items = pg.locator(".v-overlay-container .v-list-item-title")
+        labels = [items.nth(i).inner_text() for i in range(items.count())]
+        assert len(labels) == 2 and "follow_run" in labels[0] and "complete" in labels[0]
+        items.filter(has_text="a/first.h5").first.click()
+        wait_until(lambda: "first.h5" in bar.inner_text(), what="the second run")
+        pg.close()
+    finally:
+        assert stop(p) == 130

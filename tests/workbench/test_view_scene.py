@@ -183,8 +183,6 @@ def test_curves_of_a_triaxial_history(tmp_path):
 
 def test_a_checkpoint_is_shown_as_one_frame(tmp_path, source):
     st = source.state(0)
-    from engine.scene import Scene  # noqa: F401  (engine imported)
-
     p = tmp_path / "ck.h5"
     model = source.model
     try:
@@ -222,3 +220,51 @@ def test_run_with_view_serves_the_run_being_written(tmp_path):
             p.kill()
     assert any("follows the run" in x for x in seen), "".join(seen) + p.stderr.read()
     assert rc in (0, 130)
+
+
+def test_log_scale_and_manual_limits(scene, source):
+    st = scene.state
+    scene.update(st, ViewOptions(color_by="speed", clim=(0.0, 0.2), log=True))
+    lut = scene.plotter.actors["sand"].mapper.lookup_table
+    assert lut.GetScale() == 1                          # VTK_SCALE_LOG10
+    lo, hi = lut.GetRange()
+    f = scene.bar[1]
+    assert hi == pytest.approx(0.2 * f) and 0 < lo < hi  # a log scale cannot start at 0
+    scene.update(st, ViewOptions(color_by="speed", clim=(0.01, 0.05)))
+    assert scene.plotter.actors["sand"].mapper.lookup_table.GetRange() == \
+        pytest.approx((0.01 * scene.bar[1], 0.05 * scene.bar[1]))
+    scene.update(st, ViewOptions())
+
+
+def test_a_ray_through_a_taut_link_picks_it(scene, source):
+    st = scene.state
+    layers = dict(ViewOptions().layers, sand=False, wire_beads=False)
+    scene.update(st, ViewOptions(layers=layers))
+    t = st.links.tension
+    q = int(np.argmax(t))
+    mid = 0.5 * (st.position[source.model.link_i[q]] + st.position[source.model.link_j[q]])
+    d = np.array([0.0, 0.0, -1.0])
+    info = scene.pick(mid - 0.05 * d, d)
+    assert info is not None and info["what"] == "link"
+    assert info["id"] == q or abs(info["tension [N]"] - t[q]) < 1e-12 or \
+        np.linalg.norm(st.position[source.model.link_i[info["id"]]] - mid) < 4e-4
+    scene.update(st, ViewOptions())
+
+
+def test_a_history_whose_writer_was_killed_is_shown(tmp_path):
+    from workbench.view.source import find_runs
+
+    out = tmp_path / "killed.h5"
+    sim = subprocess.Popen([sys.executable, RUN, str(out), "--steps", "400", "--frames", "10",
+                            "--pause", "0.2"], stdout=subprocess.PIPE, text=True, cwd=ROOT)
+    for _ in range(3):
+        assert "frame" in sim.stdout.readline()
+    sim.kill()                                        # SIGKILL: the file is never closed
+    sim.wait()
+    before = out.read_bytes()
+    src = RunSource(out)
+    assert src.n_frames >= 3
+    assert src.state(src.n_frames - 1).step == src.frame_step[-1]
+    (entry,) = find_runs(tmp_path)
+    assert "being written" in entry.status or "not closed" in entry.status
+    assert out.read_bytes() == before                  # only read

@@ -12,8 +12,7 @@ path: it picks a run by its index in the list the server was given.
 from __future__ import annotations
 
 import asyncio
-import json
-import os
+import collections
 import time
 from pathlib import Path
 
@@ -103,7 +102,7 @@ class Viewer:
         self._rate = []                      # (wall time, step) of the followed run
         self._tasks = []
         self._last_render = 0.0
-        self._render_times = []
+        self._render_times = collections.deque(maxlen=100)   # [s] of the last redraws
         self._open(source if source is not None else self._source_of(0))
         self._build_ui()
         self.server.controller.on_server_ready.add(self._on_ready)
@@ -574,11 +573,6 @@ class Viewer:
             pass
 
 
-def describe(info: dict | None) -> str:
-    """The picked item as one JSON line (tests, logs)."""
-    return json.dumps(info, default=float)
-
-
 def free_port(host: str = "127.0.0.1") -> int:
     import socket
 
@@ -598,5 +592,3 @@ def port_free(host: str, port: int) -> bool:
             return False
     return True
 
-
-os.environ.setdefault("TRAME_DISABLE_V3_WARNING", "1")

@@ -14,7 +14,6 @@ carrying it is drawn with a colour map and a colour bar in units chosen for read
 """
 from __future__ import annotations
 
-import dataclasses
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -450,6 +449,3 @@ class ViewScene:
                 "normal force [N]": float(cd["normal_force"][q]),
                 "tangential force [N]": float(cd["tangential_force"][q])}
 
-
-def replace(opts: ViewOptions, **kw) -> ViewOptions:
-    return dataclasses.replace(opts, **kw)

@@ -228,20 +228,10 @@ class ViewScene:
                 tubes = render._tube_lines(wp, t, rad, mask, 10)
                 if tubes is not None:
                     pl.add_mesh(tubes, name=nm, show_scalar_bar=False, smooth_shading=True, **kw)
-            if layer_of == "wire":
-                v = wp.cell_data["tension" if color_by == "tension" else "strain"]
-                lo, hi = limits(v)
-                factor, bar = self._bar(color_by, FIELDS[color_by][1], lo, hi)
-                tubes = render._tube_lines(wp, v * factor, rad, taut, 10)
-                if tubes is not None:
-                    pl.add_mesh(tubes, scalars="value", cmap=opts.cmap, name="wire_taut",
-                                clim=(lo * factor, hi * factor), log_scale=opts.log,
-                                smooth_shading=True, show_scalar_bar=True, scalar_bar_args=bar)
-            else:
-                tubes = render._tube_lines(wp, t, rad, taut, 10)
-                if tubes is not None:
-                    pl.add_mesh(tubes, color=render.WIRE_COLOR, name="wire_taut",
-                                smooth_shading=True, show_scalar_bar=False)
+            shown_field = color_by if layer_of == "wire" else None
+            self._tubes(wp, "wire_taut", rad, taut, 10, shown_field,
+                        wp.cell_data[shown_field] if shown_field else t, render.WIRE_COLOR,
+                        opts, limits)
 
         # -- force chains
         self._clear("forces_strong", "forces_weak")
@@ -262,20 +252,10 @@ class ViewScene:
                                     cell_type="line", cells=np.arange(2 * idx.size).reshape(-1, 2))
                 pl.add_mesh(lines.to_polydata(), color=render.WEAK_COLOR, line_width=1.0,
                             lighting=False, name="forces_weak", show_scalar_bar=False)
-            if layer_of == "contacts":
-                v = cp.cell_data[color_by]
-                lo, hi = limits(v)
-                factor, bar = self._bar(color_by, "N", lo, hi)
-                tubes = render._tube_lines(cp, v * factor, rad, strong, 8)
-                if tubes is not None:
-                    pl.add_mesh(tubes, scalars="value", cmap=opts.cmap, name="forces_strong",
-                                clim=(lo * factor, hi * factor), log_scale=opts.log,
-                                smooth_shading=True, show_scalar_bar=True, scalar_bar_args=bar)
-            else:
-                tubes = render._tube_lines(cp, fn, rad, strong, 8)
-                if tubes is not None:
-                    pl.add_mesh(tubes, color=_FORCE_COLOR, name="forces_strong",
-                                smooth_shading=True, show_scalar_bar=False)
+            shown_field = color_by if layer_of == "contacts" else None
+            self._tubes(cp, "forces_strong", rad, strong, 8, shown_field,
+                        cp.cell_data[shown_field] if shown_field else fn, _FORCE_COLOR,
+                        opts, limits)
 
         # -- walls
         self._clear("walls")
@@ -289,6 +269,24 @@ class ViewScene:
 
         if first or reset_camera:
             self.set_camera("iso")
+
+    def _tubes(self, part, name, rad, mask, n_sides, field, values, color, opts, limits):
+        """Tubes of ``part``'s lines where ``mask`` (radii ``rad`` [m]): coloured by
+        ``values`` with a colour bar when ``field`` is the field shown, else in ``color``."""
+        if field is None:
+            tubes = render._tube_lines(part, values, rad, mask, n_sides)
+            if tubes is not None:
+                self.plotter.add_mesh(tubes, color=color, name=name, smooth_shading=True,
+                                      show_scalar_bar=False)
+            return
+        lo, hi = limits(values)
+        factor, bar = self._bar(field, FIELDS[field][1], lo, hi)
+        tubes = render._tube_lines(part, values * factor, rad, mask, n_sides)
+        if tubes is not None:
+            self.plotter.add_mesh(tubes, scalars="value", cmap=opts.cmap, name=name,
+                                  clim=(lo * factor, hi * factor), log_scale=opts.log,
+                                  smooth_shading=True, show_scalar_bar=True,
+                                  scalar_bar_args=bar)
 
     def _point_px(self, part) -> float:
         """The size [px] of a point drawing a bead of the mean radius, for the window and

@@ -204,6 +204,33 @@ def test_page_shows_the_sample_and_the_time_slider_moves_it(page, history):
 
 
 @needs_browser
+def test_the_mouse_turns_the_view_and_play_runs_the_frames(page):
+    page.locator("#camera-iso").click()
+    before = settled(page)
+    box = page.locator("#view3d canvas").bounding_box()
+    x, y = box["x"] + box["width"] / 2, box["y"] + box["height"] / 2
+    page.mouse.move(x, y)
+    page.mouse.down()
+    for k in range(1, 11):
+        page.mouse.move(x + 12 * k, y + 3 * k)
+    page.mouse.up()
+    turned = settled(page, before)
+    assert np.abs(turned.astype(int) - before.astype(int)).sum(axis=2).__gt__(30).mean() > 0.01
+    page.locator("#camera-reset").click()
+    reset = settled(page, turned)
+    assert np.abs(reset.astype(int) - before.astype(int)).sum(axis=2).__gt__(30).mean() < 0.01
+    slider_key(page, "frame-slider", "Home")
+    wait_until(lambda: frame_of(page)[0] == 0)
+    page.locator("#play").click()
+    wait_until(lambda: frame_of(page)[0] >= 2, what="play to move the frames")
+    page.locator("#play").click()                     # pause
+    time.sleep(1.0)
+    k = frame_of(page)[0]
+    time.sleep(1.5)
+    assert frame_of(page)[0] == k, "pause did not stop the frames"
+
+
+@needs_browser
 def test_wire_layer_and_clip_change_the_expected_pixels(page):
     choose(page, "color-by", "kind")                  # the wire in its own colour
     page.locator("#camera-front").click()

@@ -598,9 +598,10 @@ def parser() -> argparse.ArgumentParser:
                         "appear as they are flushed")
     from .view.app import MODES
     v.add_argument("--mode", choices=MODES, default="server",
-                   help="server: rendered on this machine with the pictures' pipeline "
-                        "(default, the faster at large sizes); client: rendered by the "
-                        "browser (vtk.js; spheres drawn as points)")
+                   help="server (default): rendered on this machine with the pictures' "
+                        "pipeline, beads at their true radius as nscd render draws them; "
+                        "client: rendered by the browser (vtk.js), faster frame changes on "
+                        "large runs (docs/view.md), beads drawn as square points")
     v.add_argument("--shots", default="out/view", help="folder of the screenshots "
                                                        "(default out/view)")
     v.set_defaults(fn=cmd_view)

@@ -31,6 +31,13 @@ MODES = ("server", "client")
 STALE_RETRY_S = 0.02
 #: ... and at most this many tries (2 s).
 STALE_RETRIES = 100
+#: A change first sends an image of this fraction of the view's size, at this JPEG quality,
+LOD_RATIO, LOD_QUALITY = 0.6, 70
+#: ... then the full one (this quality) this long after the last change [s], when a
+#: full-size image takes more than LOD_ABOVE_S [s] to push (the paper's scale: about 0.2 s;
+#: the demo's run: 0.05 s).
+STILL_AFTER_S, STILL_QUALITY = 0.25, 92
+LOD_ABOVE_S = 0.1
 #: Frame states kept in memory (about 20 MB each at the paper's scale with contacts).
 CACHED_FRAMES = 8
 #: Play speeds [frames per second].
@@ -103,6 +110,8 @@ class Viewer:
         self._tasks = []
         self._last_render = 0.0
         self._render_times = collections.deque(maxlen=100)   # [s] of the last redraws
+        self._still = None                   # the pending full-size image (a timer handle)
+        self._full_push_s = 0.0              # [s] the last full-size image push
         self._open(source if source is not None else self._source_of(0))
         self._build_ui()
         self.server.controller.on_server_ready.add(self._on_ready)
@@ -203,7 +212,7 @@ class Viewer:
         t1 = time.perf_counter()
         self._update_curves(k)
         t2 = time.perf_counter()
-        self.ctrl.view_update()
+        self._push(fast=True)
         t3 = time.perf_counter()
         self._render_times.append(t3 - t0)
         #: the last redraw's cost [ms]: scene, curves, image push (shown for benchmarks)
@@ -234,12 +243,55 @@ class Viewer:
         fig = _curves.figure(self._curves, self.source.frame_step, self.source.frame_time, k)
         self.ctrl.curves_update(fig)
 
+    # ---------------------------------------------------------------- images
+    def _push(self, fast: bool) -> None:
+        """Send the view to the browser.  Server mode, once serving, when the last
+        full-size image took more than :data:`LOD_ABOVE_S` to push: ``fast`` sends an
+        image of :data:`LOD_RATIO` of the view's size at JPEG quality :data:`LOD_QUALITY`
+        at once, then the full image :data:`STILL_AFTER_S` after the last change (as the
+        view does while the mouse turns it): the image's cost follows its pixels, and it
+        is most of a frame change at the paper's scale (docs/view.md).  Smaller scenes get
+        the full image at once."""
+        helper = getattr(getattr(self, "view", None), "_helper", None)
+        live = self.mode == "server" and getattr(self.server, "protocol", None) is not None \
+            and hasattr(helper, "set_image_quality")
+        if not live:
+            self.ctrl.view_update()
+            return
+        rw = self.scene.plotter.render_window
+        if fast and self._full_push_s > LOD_ABOVE_S:
+            helper.set_image_quality(rw, LOD_QUALITY, LOD_RATIO)
+            self.ctrl.view_update()
+            if self._still is not None:
+                self._still.cancel()
+            self._still = asyncio.get_event_loop().call_later(STILL_AFTER_S, self._push_still)
+        else:
+            if self._still is not None:
+                self._still.cancel()
+                self._still = None
+            helper.set_image_quality(rw, STILL_QUALITY, 1.0)
+            t0 = time.perf_counter()
+            self.ctrl.view_update()
+            self._full_push_s = time.perf_counter() - t0
+
+    def _push_still(self) -> None:
+        self._still = None
+        self._push(fast=False)
+
+    def _full_size(self) -> None:
+        """The full image now, if a reduced one is on show (before a pick or a
+        screenshot: both use the window's full size)."""
+        if self._still is not None:
+            self._still.cancel()
+            self._push_still()
+
     # ---------------------------------------------------------------- actions
     def set_camera(self, name: str) -> None:
         self.scene.set_camera(name)
-        self.ctrl.view_update()
+        self._push(fast=True)
 
     def screenshot(self) -> str:
+        self._full_size()
         stem = Path(self.source.path).stem
         path = self.shots / f"{stem}_frame{int(self.state.frame):04d}.png"
         out = self.scene.screenshot(path)
@@ -256,6 +308,7 @@ class Viewer:
         """A click in the 3D view: a pick along the ray under the pointer."""
         if not isinstance(event, dict):
             return
+        self._full_size()
         if event.get("ray"):                      # client view: two world points
             p0, p1 = event["ray"]
             self.pick_ray(*ViewScene.ray(p0, p1))

@@ -133,3 +133,17 @@ def test_a_grain_stopped_by_the_floor_stops_the_one_falling_on_it():
     assert x[0] == pytest.approx(R_LATE, abs=1e-12)
     assert x[1] - x[0] == pytest.approx(2 * R_LATE, abs=1e-12)
     assert state.vel6[:2, 2] == pytest.approx([0.0, 0.0], abs=1e-9)
+
+
+def test_tangent_frames_are_tangent_frame_row_by_row():
+    """The numpy frames of a history's contacts (engine.io) are the kernel's, bit for bit,
+    the coordinate axes (each branch of the least-aligned axis) included."""
+    from engine.contact.narrowphase import tangent_frame, tangent_frames
+
+    rng = np.random.default_rng(0)
+    n = rng.normal(size=(5000, 3))
+    n /= np.linalg.norm(n, axis=1)[:, None]
+    n[:6] = np.vstack([np.eye(3), -np.eye(3)])
+    got = tangent_frames(n)
+    want = np.array([(*x, *tangent_frame(*x)) for x in n])
+    assert np.array_equal(got, want)

@@ -10,13 +10,16 @@ Submodules are imported on first attribute access (module ``__getattr__``, PEP 5
 * :mod:`workbench.render` — off-screen PyVista pictures,
   :func:`~workbench.render.snapshot` with presets ``beads``, ``wire``, ``forces``, ``torus``;
 * :mod:`workbench.figures` — matplotlib figures (Agg, no pyplot), e.g.
-  :func:`~workbench.figures.deposit_figure`.
+  :func:`~workbench.figures.deposit_figure`;
+* :mod:`workbench.view` — the interactive viewer (trame): ``nscd view``,
+  :func:`~workbench.view.show` in Jupyter (docs/view.md);
+* :mod:`workbench.units` — units chosen for reading (mN, µm/s, kPa).
 """
 from __future__ import annotations
 
 import importlib
 
-_SUBMODULES = ("meshes", "series", "render", "figures")
+_SUBMODULES = ("meshes", "series", "render", "figures", "view", "units")
 
 __all__ = list(_SUBMODULES)
 

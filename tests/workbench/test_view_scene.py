@@ -70,7 +70,7 @@ def test_colour_limits_are_the_extremes_over_every_frame(source, history):
 
 def test_field_values_match_the_meshes_arrays(source, history):
     from workbench import meshes
-    from workbench.view.scene import state_arrays
+    from workbench.view.source import state_arrays
 
     st = source.state(source.n_frames - 1)
     a = state_arrays(source.model, st)

@@ -20,9 +20,9 @@ import numpy as np
 
 from .. import meshes, render
 from ..units import reading_unit
-from .source import FIELDS, field_values
+from .source import FIELDS
 
-__all__ = ["ViewOptions", "ViewScene", "LAYERS", "state_arrays"]
+__all__ = ["ViewOptions", "ViewScene", "LAYERS"]
 
 #: Layers, in the order of the panel: name -> label.
 LAYERS = {"sand": "sand beads", "wire_beads": "wire beads", "wire": "wire tension network",
@@ -52,17 +52,6 @@ class ViewOptions:
     weak: bool = False                  # the weak network as thin lines
     tension_max: float | None = None    # [N] tension of the thickest wire tube (None: frame's)
     force_max: float | None = None      # [N] normal force of the thickest contact tube
-
-
-def state_arrays(model, state) -> dict:
-    """A state's arrays named as :func:`engine.io.frame_arrays` names a frame's."""
-    c = state.contacts
-    k = len(c)
-    force = c.force if k and state.last_dt else np.zeros((k, 3))
-    return {"position": state.position, "velocity": state.velocity, "spin": state.spin,
-            "link_tension": state.links.tension, "link_broken": state.links.broken,
-            "contact_force": force, "contact_normal": c.normal, "contact_i": c.i,
-            "contact_j": c.j}
 
 
 def _segment_ray(p0, p1, o, d):
@@ -144,7 +133,6 @@ class ViewScene:
         self._drawn = {}
         for title in list(pl.scalar_bars.keys()):
             pl.remove_scalar_bar(title, render=False)
-        arrays = state_arrays(model, state)
 
         def limits(values):
             if opts.clim is not None:
@@ -177,7 +165,8 @@ class ViewScene:
             self._drawn[name] = part
             kw = {}
             if layer_of == "beads" and color_by not in ("kind", "group"):
-                v = field_values(color_by, model, arrays)[sel]
+                v = part.point_data["speed"] if color_by == "speed" else \
+                    np.linalg.norm(part.point_data["spin"], axis=1)
                 lo, hi = limits(v)
                 factor, bar = self._bar(color_by, FIELDS[color_by][1], lo, hi)
                 part.point_data["value"] = v * factor
@@ -430,7 +419,7 @@ class ViewScene:
                     "radius [m]": float(pd["radius"][q]),
                     "position [m]": [float(x) for x in part.points[q]],
                     "velocity [m/s]": [float(x) for x in v],
-                    "speed [m/s]": float(np.linalg.norm(v)),
+                    "speed [m/s]": float(pd["speed"][q]),
                     "spin [rad/s]": float(np.linalg.norm(pd["spin"][q])),
                     "fixed": bool(model.body_dof[b] != 0)}
         cd = part.cell_data

@@ -18,7 +18,7 @@ from pathlib import Path
 import numpy as np
 
 __all__ = ["RunSource", "RunEntry", "ViewInputError", "find_runs", "open_input", "FIELDS",
-           "curves_of"]
+           "curves_of", "field_values", "state_arrays"]
 
 
 class ViewInputError(ValueError):
@@ -66,6 +66,17 @@ def field_values(name: str, model, arrays: dict) -> np.ndarray:
             return fn
         return _norms(f - fn[:, None] * n) if f.size else np.zeros(0)
     raise ValueError(f"no values for field {name!r}")
+
+
+def state_arrays(model, state) -> dict:
+    """A state's arrays named as :func:`engine.io.frame_arrays` names a frame's (a
+    checkpoint's one state, for :func:`field_values`)."""
+    c = state.contacts
+    force = c.force if len(c) and state.last_dt else np.zeros((len(c), 3))
+    return {"position": state.position, "velocity": state.velocity, "spin": state.spin,
+            "link_tension": state.links.tension, "link_broken": state.links.broken,
+            "contact_force": force, "contact_normal": c.normal, "contact_i": c.i,
+            "contact_j": c.j}
 
 
 _NEEDS = {"speed": ["velocity"], "spin": ["spin"], "tension": ["link_tension"],
@@ -304,8 +315,6 @@ class RunSource:
         lo, hi, seen = self._ranges.get(name, (np.inf, -np.inf, 0))
         if seen < self.n_frames:
             if self.content == "checkpoint":
-                from workbench.view.scene import state_arrays
-
                 chunks = [state_arrays(self.model, self._checkpoint_state)]
             else:
                 chunks = io.frame_arrays(self.path, _NEEDS[name], range(seen, self.n_frames))

@@ -55,7 +55,8 @@ import numpy as np
 from . import meshes
 
 __all__ = ["PRESETS", "CAMERAS", "snapshot", "plotter", "theme", "set_camera", "add_beads",
-           "add_wire", "add_forces", "add_torus", "add_walls", "headless_backend", "revolved_map"]
+           "add_wire", "add_forces", "add_torus", "add_walls", "headless_backend", "revolved_map",
+           "picture_kind"]
 
 PRESETS = ("beads", "wire", "forces", "torus")
 
@@ -221,6 +222,15 @@ def _black_legend_text(legend, colors) -> None:
     legend.GetEntryTextProperty().SetColor(0.0, 0.0, 0.0)
 
 
+def picture_kind(model, part) -> np.ndarray:
+    """(n,) the ``kind`` of a bead part's spheres as the pictures colour them: sand, wire,
+    or :data:`FIXED_KIND` for a fixed sphere that is not a wire bead (a floor of beads: a
+    third colour)."""
+    kind = part.point_data["kind"]
+    fixed = (model.body_dof[part.point_data["body_id"]] != 0) & (kind != meshes.BEAD_WIRE)
+    return np.where(fixed, FIXED_KIND, kind)
+
+
 def add_beads(pl, model, state, *, walls: bool = True, wall_opacity: float = 0.15,
               color_by: str = "kind", clim=None, cmap="viridis", cut=None) -> None:
     """Preset ``beads``: spheres coloured by ``color_by`` = ``"kind"`` (sand / wire,
@@ -240,12 +250,10 @@ def add_beads(pl, model, state, *, walls: bool = True, wall_opacity: float = 0.1
         part = _select(part, keep)
     if part.n_points:
         if color_by == "kind":
-            # fixed spheres (a floor of beads) apart from the sand: a third colour
-            fixed = (model.body_dof[part.point_data["body_id"]] != 0) & \
-                (part.point_data["kind"] != meshes.BEAD_WIRE)
+            kind = picture_kind(model, part)
+            fixed = kind == FIXED_KIND
             colors = [SAND_COLOR, WIRE_COLOR] + ([FIXED_COLOR] if fixed.any() else [])
             if fixed.any():
-                kind = np.where(fixed, FIXED_KIND, part.point_data["kind"])
                 part = dataclasses.replace(part, point_data=dict(
                     part.point_data, kind=kind.astype(part.point_data["kind"].dtype)))
             _spheres(pl, part, "beads", scalars="kind", cmap=colors,

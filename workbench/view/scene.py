@@ -151,7 +151,6 @@ class ViewScene:
         # -- beads
         bp = meshes.bead_part(model, state)
         kind = bp.point_data["kind"]
-        fixed = (model.body_dof[bp.point_data["body_id"]] != 0) & (kind != meshes.BEAD_WIRE)
         keep = self._keep(bp.points, opts)
         self._clear("sand", "sand_ghost", "wire_beads")
         for name, mask in (("sand", kind != meshes.BEAD_WIRE),
@@ -180,8 +179,7 @@ class ViewScene:
                 kw = dict(scalars="value", cmap="tab10", clim=(-0.5, ng - 0.5), n_colors=ng,
                           show_scalar_bar=False)
             elif name == "sand":
-                k = np.where(fixed[sel], render.FIXED_KIND, 0).astype(float)
-                part.point_data["value"] = k
+                part.point_data["value"] = render.picture_kind(model, part).astype(float)
                 kw = dict(scalars="value", cmap=[render.SAND_COLOR, render.WIRE_COLOR,
                                                  render.FIXED_COLOR],
                           clim=(-0.5, 2.5), n_colors=3, show_scalar_bar=False)
@@ -367,6 +365,7 @@ class ViewScene:
         if state is None:
             return None
         hits = []                              # (t along the ray, priority, result)
+        r_sphere = float(model.body_radius[model.sphere_ids].max())
         for name in ("wire_beads", "sand"):
             part = self._drawn.get(name)
             if part is None:
@@ -391,8 +390,7 @@ class ViewScene:
                 continue
             pts = part.points.reshape(-1, 2, 3)[idx]
             dist, t = _segment_ray(pts[:, 0], pts[:, 1], o, d)
-            ok = (dist <= np.maximum(rad[idx], 0.5 * float(model.body_radius.max()) * 0.2)) \
-                & (t > 0)
+            ok = (dist <= np.maximum(rad[idx], 0.1 * r_sphere)) & (t > 0)
             if ok.any():
                 j = np.flatnonzero(ok)[int(np.argmin(t[ok]))]
                 hits.append((float(t[j]) - float(rad[idx][j]), 0,

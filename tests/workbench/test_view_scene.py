@@ -160,12 +160,16 @@ def test_curves_of_a_triaxial_history(tmp_path):
                                 history=str(h), frames=20, progress=False)
     src = RunSource(h)
     assert src.meta["test"] == "cylinder_triaxial" and src.meta["params"]["seed"] == 0
-    c = curves_of(src.records, src.meta)
+    c = curves_of(src.records)
     eps, q = c["deviator"][0], c["deviator"][1]
     # the viewer's strain and deviator are the test's own (engine.experiments.triaxial)
     np.testing.assert_allclose(eps, res.axial_strain, rtol=1e-12, atol=1e-15)
     np.testing.assert_allclose(q, res.deviator / 1e3, rtol=1e-12)
     np.testing.assert_allclose(c["wire_equivalent"][1], res.wire_equivalent / 1e3, rtol=1e-12)
+    sel = c["_curve_records"]                  # per record: what the frame's line shows
+    np.testing.assert_allclose(c["_q"][sel], res.deviator / 1e3, rtol=1e-12)
+    np.testing.assert_allclose(c["_p"][sel], res.mean_stress / 1e3, rtol=1e-12)
+    assert np.isnan(c["_q"][:sel[0]]).all()    # the isotropic stage
     fig = vcurves.figure(c, src.frame_step, src.frame_time, src.n_frames - 1)
     names = [d["name"] for d in fig["data"]]
     assert "deviator q" in names and "kinetic energy [J]" in names

@@ -145,8 +145,7 @@ class Viewer:
         else:
             self.scene.cylinder = None
         self._states = {}
-        self._curves = curves_of(source.records, source.meta) if source.records is not None \
-            else None
+        self._curves = curves_of(source.records) if source.records is not None else None
         self._rate = []
 
     def _needs_contacts(self) -> bool:
@@ -223,17 +222,12 @@ class Viewer:
         parts = [f"frame {k + 1} / {self.source.n_frames}", f"step {st.step}",
                  f"t = {st.time:.6g} s"]
         c = self._curves
-        if c is not None and "_strain" in c and self.source.records is not None:
-            steps = c["_step"]
-            j = int(np.argmin(np.abs(steps - st.step))) if len(steps) else None
-            if j is not None and np.isfinite(c["_strain"][j]):
-                rec = self.source.records
-                s_ = np.asarray(rec.extra["stress"][j], float)
-                sa, sr = -s_[2, 2], -(s_[0, 0] + s_[1, 1]) / 2
-                parts += [f"axial strain {c['_strain'][j]:.4f}",
-                          f"q = {(sa - sr) / 1e3:.3g} kPa",
-                          f"p = {-np.trace(s_) / 3e3:.3g} kPa"]
-            elif j is not None and "stress" in (self.source.records.extra or {}):
+        if c is not None and "_strain" in c and len(c["_step"]):
+            j = int(np.argmin(np.abs(c["_step"] - st.step)))     # the record nearest
+            if np.isfinite(c["_strain"][j]):
+                parts += [f"axial strain {c['_strain'][j]:.4f}", f"q = {c['_q'][j]:.3g} kPa",
+                          f"p = {c['_p'][j]:.3g} kPa"]
+            else:
                 parts.append("isotropic stage")
         return " · ".join(parts)
 
@@ -370,7 +364,7 @@ class Viewer:
             self._progress()
             if not new:
                 return False
-            self._curves = curves_of(src.records, src.meta)
+            self._curves = curves_of(src.records)
             self.state.n_frames = src.n_frames
             if was_last:
                 self.state.frame = src.n_frames - 1   # redraws through its callback

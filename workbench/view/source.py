@@ -84,14 +84,15 @@ _NEEDS = {"speed": ["velocity"], "spin": ["spin"], "tension": ["link_tension"],
           "tangential_force": ["contact_force", "contact_normal"]}
 
 
-def curves_of(records, meta: dict) -> dict:
+def curves_of(records) -> dict:
     """The run's recorded curves, by name: ``{name: (x, y, x label, y label)}`` plus
-    ``"_step"`` (the records' steps) and ``"_converged"``.  Every run: kinetic energy [J]
-    and NLGS sweeps and residual per recorded step against time [s]; the triaxial tests
+    ``"_step"``, ``"_time"`` and ``"_converged"`` per record.  Every run: kinetic energy
+    [J] and NLGS sweeps and residual per recorded step against time [s]; the triaxial tests
     (records ``stress``, ``height``, ``stage``): deviator q and mean stress p [kPa] and the
     wire's equivalent stress [kPa] (:func:`engine.analysis.equivalent_stress`) against the
-    axial strain 1 − H/H₀ (H₀ the height at the start of the loading; before it, the
-    isotropic stage, the strain is negative time-less: those records are left out)."""
+    axial strain 1 − H/H₀, H₀ the height at the start of the loading (the records of the
+    isotropic stage before it are left out), and ``"_curve_records"`` (the records drawn)
+    and ``"_strain"``, ``"_q"``, ``"_p"`` per record (NaN in the isotropic stage)."""
     from engine.analysis import equivalent_stress
 
     t = np.asarray(records.time, float)
@@ -123,8 +124,10 @@ def curves_of(records, meta: dict) -> dict:
                 out["wire_equivalent"] = (eps, np.array([equivalent_stress(x) for x in w]) / 1e3,
                                           "axial strain [-]", "wire eq. stress [kPa]")
             out["_curve_records"] = sel
-            out["_strain"] = np.full(len(t), np.nan)
-            out["_strain"][sel] = eps
+            for key, v in (("_strain", eps), ("_q", out["deviator"][1]),
+                           ("_p", out["mean_stress"][1])):
+                out[key] = np.full(len(t), np.nan)
+                out[key][sel] = v
     return out
 
 
@@ -147,8 +150,9 @@ class RunEntry:
 
 
 def _status_of(path: str) -> str:
-    """"complete", or "writing or stopped" for a history still open for writing (its writer
-    runs, or was killed), read without writing anything."""
+    """"complete"; "being written" or "not closed" (by the time of its last write) for a
+    history still open for writing (its writer runs, or was killed); "unreadable".  Read
+    without writing anything."""
     import h5py
 
     try:

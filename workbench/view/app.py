@@ -12,7 +12,6 @@ path: it picks a run by its index in the list the server was given.
 from __future__ import annotations
 
 import asyncio
-import collections
 import time
 from pathlib import Path
 
@@ -108,8 +107,6 @@ class Viewer:
         self._states = {}                    # (frame, with contacts) -> State
         self._rate = []                      # (wall time, step) of the followed run
         self._tasks = []
-        self._last_render = 0.0
-        self._render_times = collections.deque(maxlen=100)   # [s] of the last redraws
         self._still = None                   # the pending full-size image (a timer handle)
         self._full_push_s = 0.0              # [s] the last full-size image push
         self._open(source if source is not None else self._source_of(0))
@@ -213,7 +210,6 @@ class Viewer:
         t2 = time.perf_counter()
         self._push(fast=True)
         t3 = time.perf_counter()
-        self._render_times.append(t3 - t0)
         #: the last redraw's cost [ms]: scene, curves, image push (shown for benchmarks)
         s.redraw_ms = [round(1e3 * (t1 - t0), 1), round(1e3 * (t2 - t1), 1),
                        round(1e3 * (t3 - t2), 1)]
@@ -366,9 +362,10 @@ class Viewer:
                 return False
             self._curves = curves_of(src.records)
             self.state.n_frames = src.n_frames
-            if was_last:
-                self.state.frame = src.n_frames - 1   # redraws through its callback
-            self._update_curves(int(self.state.frame))
+            if was_last and int(self.state.frame) != src.n_frames - 1:
+                self.state.frame = src.n_frames - 1   # redraws (curves included) on change
+            else:
+                self._update_curves(int(self.state.frame))
         return True
 
     def _progress(self) -> None:

@@ -633,7 +633,10 @@ class History:
         self.n_records = 0
         self.n_frames = 0
         if meta is not None:
-            try:
+            if not isinstance(meta, dict):
+                raise ValueError(f"meta must be a dict (what the run is), got "
+                                 f"{type(meta).__name__}")
+            try:                  # values JSON cannot hold are stored as their str
                 meta = json.dumps(meta, default=str, allow_nan=True)
             except (TypeError, ValueError) as e:
                 raise ValueError(f"meta must be a JSON-serialisable dict: {e}") from None
@@ -1024,7 +1027,12 @@ def frame_arrays(path, names, frames=None):
         fg = f["frames"]
         m = _frame_count(fg)
         start, count = fg["contact_start"][:m], fg["contact_count"][:m]
-        for k in (range(m) if frames is None else frames):
+        ks = list(range(m)) if frames is None else [int(k) for k in frames]
+        bad = [k for k in ks if not 0 <= k < m]
+        if bad:
+            raise _BadArgument(f"frame_arrays: frames {bad[:5]} out of range: the history "
+                               f"holds frames 0..{m - 1}")
+        for k in ks:
             out = {}
             for n in names:
                 if n.startswith("contact_"):

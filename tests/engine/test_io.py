@@ -517,3 +517,69 @@ def test_history_run_id_is_kept_by_a_resume_and_read_while_open(tmp_path):
     io.save(tmp_path / "c.h5", model, state)
     with pytest.raises(ValueError, match="is not a history"):
         io.history_run_id(tmp_path / "c.h5")
+
+
+def test_read_frame_is_load_of_that_frame_and_contacts_can_be_left_out(tmp_path):
+    """read_frame with the model read once gives load(frame)'s state, array for array;
+    contacts=False gives the same bodies and links and no contacts; frame_index and
+    frame_arrays name the same frames; bad names and frames are refused by name."""
+    model, state = scene()
+    p = tmp_path / "h.h5"
+    with io.History(p, trigger=10, frames=20) as h:
+        _run_with(model, state, 60, h)
+    m = io.load_model(p)
+    steps, times = io.frame_index(p)
+    assert steps.tolist() == [20, 40, 60] and times == pytest.approx(steps * model.options.dt)
+    for k in range(3):
+        _, want = io.load(p, frame=k)
+        got = io.read_frame(p, k, m)
+        for name in ("position", "vel6", "link_impulse", "link_broken"):
+            assert _same(getattr(got, name), getattr(want, name)), name
+        cw, cg = want.contacts, got.contacts
+        assert len(cw) > 0 and np.array_equal(cg.force, cw.force)
+        assert np.array_equal(cg.normal, cw.normal) and np.array_equal(cg.i, cw.i)
+        bare = io.read_frame(p, k, m, contacts=False)
+        assert len(bare.contacts) == 0 and _same(bare.position, want.position)
+        assert np.array_equal(bare.links.tension, want.links.tension)
+    arrays = list(io.frame_arrays(p, ["velocity", "contact_force"], frames=[2, 0]))
+    assert np.array_equal(arrays[0]["velocity"], io.load(p, frame=2)[1].velocity)
+    assert np.array_equal(arrays[1]["contact_force"], io.load(p, frame=0)[1].contacts.force)
+    with pytest.raises(ValueError, match=r"unknown array\(s\) \['speed'\]"):
+        list(io.frame_arrays(p, ["speed"]))
+    with pytest.raises(ValueError, match=r"frames \[3\] out of range: .* 0\.\.2"):
+        list(io.frame_arrays(p, ["position"], frames=[3]))
+    with pytest.raises(ValueError, match=r"frame must be an integer in \[-3, 2\]"):
+        io.read_frame(p, 7, m)
+
+
+def _run_with(model, state, n, writer):
+    with _Quiet():
+        run(model, state, n, writers=[writer], progress=False)
+
+
+def test_history_meta_round_trips_and_survives_a_resume(tmp_path):
+    model, state = scene()
+    p = tmp_path / "h.h5"
+    meta = {"test": "mine", "total_steps": 40, "params": {"k": 0.2, "wire": "elastic"}}
+    with io.History(p, trigger=10, frames=20, meta=meta) as h:
+        _run_with(model, state, 20, h)
+        assert io.history_meta(p) == meta                      # while being written
+    with io.History(p, trigger=10, frames=20, resume_step=10):
+        pass
+    assert io.history_meta(p) == meta
+    with io.History(tmp_path / "none.h5") as g:
+        _run_with(model, state, 1, g)
+    assert io.history_meta(tmp_path / "none.h5") == {}
+    with io.History(tmp_path / "law.h5", meta={"law": laws.RigidWire()}) as g:
+        _run_with(model, state, 1, g)
+    assert io.history_meta(tmp_path / "law.h5") == {"law": str(laws.RigidWire())}
+    with pytest.raises(ValueError, match="meta must be a dict .*, got list"):
+        io.History(tmp_path / "bad.h5", meta=["test"])
+    loop = {}
+    loop["self"] = loop
+    with pytest.raises(ValueError, match="meta must be a JSON-serialisable dict"):
+        io.History(tmp_path / "bad.h5", meta=loop)
+    assert not (tmp_path / "bad.h5").exists()          # refused before the file is made
+    io.save(tmp_path / "c.h5", model, state)
+    with pytest.raises(ValueError, match="is not a history"):
+        io.history_meta(tmp_path / "c.h5")

@@ -26,6 +26,8 @@ from .source import FIELDS, RunSource, ViewInputError, curves_of
 __all__ = ["Viewer", "MODES", "SPEEDS"]
 
 MODES = ("server", "client")
+#: The page's own scripts (the curves panel).
+STATIC = Path(__file__).resolve().parent / "static"
 #: Seconds between two tries to push a rendered image still being encoded (trame-vtk: 0.5).
 STALE_RETRY_S = 0.02
 #: ... and at most this many tries (2 s).
@@ -143,6 +145,7 @@ class Viewer:
             self.scene.cylinder = None
         self._states = {}
         self._curves = curves_of(source.records) if source.records is not None else None
+        self._fig_sent = False                 # the curves panel has this run's curves
         self._rate = []
 
     def _needs_contacts(self) -> bool:
@@ -228,10 +231,16 @@ class Viewer:
         return " · ".join(parts)
 
     def _update_curves(self, k) -> None:
+        """The curves panel at frame ``k``: the figure when the curves changed since it was
+        last sent (another run, new records of a followed run), else the frame's lines only
+        (static/curves.js draws them)."""
         if self._curves is None or not self.state.show_curves:
             return
-        fig = _curves.figure(self._curves, self.source.frame_step, self.source.frame_time, k)
-        self.ctrl.curves_update(fig)
+        args = (self._curves, self.source.frame_step, self.source.frame_time, k)
+        if not self._fig_sent:
+            self.state.curves_fig = _curves.figure(*args)
+            self._fig_sent = True
+        self.state.curves_marks = _curves.marks(*args)
 
     # ---------------------------------------------------------------- images
     def _push(self, fast: bool) -> None:
@@ -310,10 +319,11 @@ class Viewer:
             return
         self.pick_ray(*self.scene.ray_at(x, y))
 
-    def on_curve_click(self, event) -> None:
+    def on_curve_click(self, k) -> None:
+        """A click on a curve: ``k`` is the clicked point's frame (its ``customdata``)."""
         try:
-            k = int(event["points"][0]["customdata"])
-        except (KeyError, IndexError, TypeError, ValueError):
+            k = int(k)
+        except (TypeError, ValueError):
             return
         self.state.frame = int(np.clip(k, 0, self.source.n_frames - 1))
 
@@ -361,6 +371,7 @@ class Viewer:
             if not new:
                 return False
             self._curves = curves_of(src.records)
+            self._fig_sent = False
             self.state.n_frames = src.n_frames
             if was_last and int(self.state.frame) != src.n_frames - 1:
                 self.state.frame = src.n_frames - 1   # redraws (curves included) on change
@@ -419,7 +430,7 @@ class Viewer:
     # ---------------------------------------------------------------- UI
     def _build_ui(self) -> None:
         from trame.ui.vuetify3 import SinglePageWithDrawerLayout
-        from trame.widgets import html, plotly
+        from trame.widgets import client, html
         from trame.widgets import vtk as vtkw
         from trame.widgets import vuetify3 as v3
 
@@ -432,7 +443,7 @@ class Viewer:
             color_title="", log_scale=False, clip_axis="none", clip_offset=0.5,
             clip_flip=False, clip_wire=False, ghost=False, strong=1.0, weak=False,
             picked=[], picked_raw=None, message="", progress="", run_index=0,
-            redraw_ms=[0, 0, 0],
+            redraw_ms=[0, 0, 0], curves_fig=None, curves_marks=[],
             run_title=src.name, show_curves=True, has_curves=self._curves is not None,
             follow=self.follow,
             runs=[{"title": r.label(), "value": i} for i, r in enumerate(self.runs)],
@@ -475,7 +486,14 @@ class Viewer:
         ctrl.camera = self.set_camera
         ctrl.screenshot = self.screenshot
         ctrl.on_click = self.on_click
-        ctrl.on_curve_click = self.on_curve_click
+        self.server.trigger("curve_click")(self.on_curve_click)
+        # the curves panel's script, and plotly.js which it loads on demand
+        import plotly as _plotly
+
+        self.server.enable_module({
+            "serve": {"__nscd_view": str(STATIC),
+                      "__nscd_plotly": str(Path(_plotly.__file__).parent / "package_data")},
+            "scripts": ["__nscd_view/curves.js"]})
 
         def step_by(d):
             s.frame = int(np.clip(int(s.frame) + d, 0, self.source.n_frames - 1))
@@ -589,17 +607,19 @@ class Viewer:
                     with html.Div(v_show="has_curves && show_curves",
                                   style="flex: 0 0 300px; border-top: 1px solid #ddd;",
                                   id="curves"):
-                        plotly.Figure(state_variable_name="curves_fig", display_mode_bar=False,
-                                      responsive=True,
-                                            click=(ctrl.on_curve_click,
-                                                   "[{points: ($event?.points || []).map("
-                                                   "p => ({customdata: p.customdata, x: p.x}))}]"))
-                        ctrl.curves_update = self._push_figure
+                        html.Div(id="curves-plot", style="width: 100%; height: 300px;")
+                        client.ClientStateChange(
+                            value="curves_fig", trigger_on_create=True,
+                            change="window.nscdCurves.show('curves-plot', curves_fig, "
+                                   "curves_marks, k => trigger('curve_click', [k]))")
+                        client.ClientStateChange(
+                            value="curves_marks",
+                            change="window.nscdCurves.mark('curves-plot', curves_marks)")
+                        client.ClientStateChange(
+                            value="show_curves",
+                            change="window.nscdCurves.resize('curves-plot')")
         # first picture
         self.redraw(reset_camera=True)
-
-    def _push_figure(self, figure: dict) -> None:
-        self.state.curves_fig = figure
 
     # ---------------------------------------------------------------- serving
     def start(self, *, host: str = "127.0.0.1", port: int = 0, **kw):

@@ -4,14 +4,15 @@ Panels: the stress–strain curves of a triaxial test (deviator q and mean stres
 against the axial strain) and the wire's equivalent stress [kPa]; the kinetic energy [J]
 (log scale); the NLGS sweeps per recorded step with the steps that did not converge
 marked (red crosses) and the residual.  The current frame is a vertical line on every
-panel.  Each point carries the index of the frame nearest to it in ``customdata``, so a
-click on a curve moves to that frame.
+panel (:func:`marks`: the page gets the figure when the curves change and only the lines
+when the frame does).  Each point carries the index of the frame nearest to it in
+``customdata``, so a click on a curve moves to that frame.
 """
 from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["figure", "nearest_frames"]
+__all__ = ["figure", "marks", "nearest_frames"]
 
 _LINE = {"deviator": "#1f4e9c", "mean_stress": "#7f7f7f", "wire_equivalent": "#d62728",
          "kinetic_energy": "#2ca02c", "iterations": "#1f4e9c", "residual": "#9467bd"}
@@ -36,17 +37,44 @@ def _finite(y):
     return np.where(np.isfinite(y), y, None).tolist()
 
 
+def _panels(curves: dict) -> list[str]:
+    return ["stress", "energy", "solver"] if "deviator" in curves else ["energy", "solver"]
+
+
+def marks(curves: dict, frame_steps, frame_times, frame: int | None) -> list[dict]:
+    """The current ``frame``'s vertical line on each panel (Plotly layout shapes): at its
+    axial strain on the stress panel (none in the isotropic stage), at its time [s] on the
+    others."""
+    out = []
+    if frame is None:
+        return out
+    near = nearest_frames(curves["_step"], frame_steps)
+    for i, panel in enumerate(_panels(curves)):
+        ax = "" if i == 0 else str(i + 1)
+        x = None
+        if panel == "stress":
+            sel = curves["_curve_records"]
+            k = np.flatnonzero(near[sel] == frame)
+            x = float(curves["deviator"][0][k[0]]) if k.size else None
+        elif 0 <= frame < len(frame_times):
+            x = float(frame_times[frame])
+        if x is not None:
+            out.append({"type": "line", "xref": f"x{ax}", "yref": f"y{ax} domain",
+                        "x0": x, "x1": x, "y0": 0, "y1": 1,
+                        "line": {"color": "#ff7f0e", "width": 2}})
+    return out
+
+
 def figure(curves: dict, frame_steps, frame_times, frame: int | None, *,
            height: int = 300) -> dict:
     """The Plotly figure (``{"data": [...], "layout": {...}}``) of ``curves``
     (:func:`workbench.view.source.curves_of`), the current ``frame`` (an index into
-    ``frame_steps`` / ``frame_times`` [s]) marked."""
+    ``frame_steps`` / ``frame_times`` [s]) marked (:func:`marks`; None: no line)."""
     steps = curves["_step"]
     near = nearest_frames(steps, frame_steps)
     conv = curves["_converged"]
     time = curves["_time"]
-    stress = "deviator" in curves
-    panels = (["stress", "energy", "solver"] if stress else ["energy", "solver"])
+    panels = _panels(curves)
     n = len(panels)
     gap = 0.08
     width = (1.0 - gap * (n - 1)) / n
@@ -55,8 +83,8 @@ def figure(curves: dict, frame_steps, frame_times, frame: int | None, *,
         "showlegend": True, "legend": {"orientation": "h", "x": 0, "y": 1.0, "yanchor": "bottom",
                                         "font": {"size": 10}},
         "font": {"family": "Arial", "size": 11}, "plot_bgcolor": "white",
-        "paper_bgcolor": "white", "hovermode": "x", "clickmode": "event", "shapes": [],
-        "annotations": []}
+        "paper_bgcolor": "white", "hovermode": "x", "clickmode": "event",
+        "shapes": marks(curves, frame_steps, frame_times, frame), "annotations": []}
     for i, panel in enumerate(panels):
         ax = "" if i == 0 else str(i + 1)
         x0 = i * (width + gap)
@@ -76,7 +104,6 @@ def figure(curves: dict, frame_steps, frame_times, frame: int | None, *,
                          "hovertemplate": "%{x:.4g}, %{y:.4g}<br>frame %{customdata}"
                                           "<extra></extra>", **kw})
 
-        mark_x = None
         if panel == "stress":
             sel = curves["_curve_records"]
             for name in ("deviator", "mean_stress", "wire_equivalent"):
@@ -85,9 +112,6 @@ def figure(curves: dict, frame_steps, frame_times, frame: int | None, *,
                     trace(name, x, y, yl.split(" [")[0], sel)
             layout[f"xaxis{ax}"]["title"] = {"text": "axial strain [-]"}
             layout[f"yaxis{ax}"]["title"] = {"text": "stress [kPa]"}
-            if frame is not None:
-                k = np.flatnonzero(near[sel] == frame)
-                mark_x = float(curves["deviator"][0][k[0]]) if k.size else None
         else:
             t = time
             if panel == "energy":
@@ -114,10 +138,4 @@ def figure(curves: dict, frame_steps, frame_times, frame: int | None, *,
                              "hovertemplate": "%{x:.4g} s, residual %{y:.3g}<br>frame "
                                               "%{customdata}<extra></extra>"})
             layout[f"xaxis{ax}"]["title"] = {"text": "time [s]"}
-            if frame is not None and 0 <= frame < len(frame_times):
-                mark_x = float(frame_times[frame])
-        if mark_x is not None:
-            layout["shapes"].append({"type": "line", "xref": xref, "yref": f"{yref} domain",
-                                     "x0": mark_x, "x1": mark_x, "y0": 0, "y1": 1,
-                                     "line": {"color": "#ff7f0e", "width": 2}})
     return {"data": data, "layout": layout}

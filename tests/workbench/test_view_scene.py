@@ -172,6 +172,13 @@ def test_curves_of_a_triaxial_history(tmp_path):
     assert np.isnan(c["_q"][:sel[0]]).all()    # the isotropic stage
     fig = vcurves.figure(c, src.frame_step, src.frame_time, src.n_frames - 1)
     names = [d["name"] for d in fig["data"]]
+    # the frame's lines: at the last frame's strain on the stress panel, its time elsewhere
+    lines = vcurves.marks(c, src.frame_step, src.frame_time, src.n_frames - 1)
+    assert fig["layout"]["shapes"] == lines and len(lines) == 3
+    k = np.flatnonzero(near_last := (vcurves.nearest_frames(c["_step"], src.frame_step)[sel]
+                                     == src.n_frames - 1))[0]
+    assert lines[0]["x0"] == pytest.approx(eps[k]) and near_last.any()
+    assert lines[1]["x0"] == lines[2]["x0"] == pytest.approx(src.frame_time[-1])
     assert "deviator q" in names and "kinetic energy [J]" in names
     near = vcurves.nearest_frames(c["_step"], src.frame_step)
     assert np.all(np.abs(src.frame_step[near] - c["_step"]) ==

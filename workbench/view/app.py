@@ -487,12 +487,13 @@ class Viewer:
         ctrl.screenshot = self.screenshot
         ctrl.on_click = self.on_click
         self.server.trigger("curve_click")(self.on_curve_click)
-        # the curves panel's script, and plotly.js which it loads on demand
-        import plotly as _plotly
+        # the curves panel's script, and plotly.js which it loads on demand (the plotly
+        # package's own copy, found without importing the package)
+        import importlib.util
 
+        plotly_js = Path(importlib.util.find_spec("plotly").origin).parent / "package_data"
         self.server.enable_module({
-            "serve": {"__nscd_view": str(STATIC),
-                      "__nscd_plotly": str(Path(_plotly.__file__).parent / "package_data")},
+            "serve": {"__nscd_view": str(STATIC), "__nscd_plotly": str(plotly_js)},
             "scripts": ["__nscd_view/curves.js"]})
 
         def step_by(d):

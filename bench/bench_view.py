@@ -25,8 +25,12 @@ Per history and mode, ``nscd view PATH --mode M`` runs as a subprocess and Chrom
    2026-12-02, added that much to the figure); ``url_s``: to the URL printed (the server
    read the run and drew its first frame); ``page_s``: from opening the page to the
    picture;
-2. ``frame_change_s``: from a key press on the time slider (Home / End: from the last
-   frame to the first and back) to the last picture of the new frame in the page (median
+2. ``frame_change_s``: from a key press on the time slider (Home: from the last frame,
+   where the page opens, to the first, then the right arrow: frame after frame, each a
+   frame the page has not shown before, so that client mode gets new arrays at every
+   change: alternating the first and last frames, as this bench did until 2026-12-03,
+   let the page reuse the arrays it already had) to the last picture of the new frame in
+   the page (median
    and max over the changes): a page script notes when each server image is shown
    (``--mode server``) or each WebGL draw call (``--mode client``), so nothing polls the
    page while it works.  In server mode a change first sends an image at 60 % of the
@@ -86,8 +90,10 @@ window.__draws = [];
 window.__imgs = [];
 for (const C of [window.WebGLRenderingContext, window.WebGL2RenderingContext]) {
   if (!C) continue;
-  for (const m of ['drawArrays', 'drawElements']) {
+  for (const m of ['drawArrays', 'drawElements', 'drawArraysInstanced',
+                  'drawElementsInstanced']) {
     const f = C.prototype[m];
+    if (!f) continue;
     C.prototype[m] = function(...a) { window.__draws.push(performance.now());
                                       return f.apply(this, a); };
   }
@@ -182,8 +188,9 @@ def measure(path: Path, mode: str, browser, changes: int) -> dict:
         n = int(re.search(r"/ (\d+)", pg.locator("#frame-info").inner_text()).group(1))
         dts, firsts, server = [], [], []
         for i in range(changes):
-            # between the first and the last frame: a change that surely shows
-            key, want = ("Home", 0) if _frame(pg) != 0 else ("End", n - 1)
+            # the first frame, then frame after frame: each one new to the page
+            k = _frame(pg)
+            key, want = ("ArrowRight", k + 1) if 0 <= k < n - 1 and i else ("Home", 0)
             thumb.focus()
             t_press = pg.evaluate("performance.now()")
             thumb.press(key)

@@ -83,17 +83,20 @@ def browser():
         b.close()
 
 
-@pytest.fixture(scope="module")
-def served(history):
-    p, url = start_view(history, "--shots", str(Path(history).parent / "shots"))
-    yield url
+@pytest.fixture(scope="module", params=["server", "client"])
+def served(request, history):
+    """The viewer of ``history`` in each rendering mode (the page's tests run in both)."""
+    p, url = start_view(history, "--mode", request.param,
+                        "--shots", str(Path(history).parent / f"shots-{request.param}"))
+    yield url, request.param
     assert stop(p) == 130
 
 
 @pytest.fixture
 def page(browser, served):
     pg = browser.new_page(viewport={"width": 1400, "height": 900})
-    pg.goto(served)
+    pg.goto(served[0])
+    pg.nscd_mode = served[1]
     pg.wait_for_selector("#view3d canvas", timeout=60000)
     wait_until(lambda: "step" in text(pg, "#frame-info"), what="the frame's info")
     yield pg
@@ -139,6 +142,42 @@ def settled(pg, before=None, timeout=30.0) -> np.ndarray:
     if before is not None:
         raise AssertionError("the 3D view did not change")
     return last
+
+
+def shown(pg) -> np.ndarray:
+    """The view's pixels once the scene is drawn (not blank) and settled (client mode
+    draws a moment after the page loads)."""
+    wait_until(lambda: (~np.all(pixels(pg) > 245, axis=2)).mean() > 0.02, what="a picture")
+    return settled(pg)
+
+
+def after(pg, action) -> np.ndarray:
+    """The view's pixels once ``action()`` has changed them (a button's camera reaches a
+    client-side view a moment after the click)."""
+    before = shown(pg)
+    action()
+    return settled(pg, before)
+
+
+def screenshot_pixels(pg) -> np.ndarray:
+    """The pixels of the PNG the screenshot button writes (the message names it; the same
+    frame gives the same name, so the file must be newer than the click)."""
+    from PIL import Image
+
+    t0 = time.time()
+    pg.locator("#screenshot").click()
+
+    def written():
+        msg = text(pg, "#message")
+        if "wrote " not in msg:
+            return None
+        path = Path(msg.split("wrote ", 1)[1].strip())
+        path = path if path.is_absolute() else ROOT / path
+        return path if path.exists() and path.stat().st_mtime >= t0 - 0.01 else None
+
+    path = wait_until(written, what="the screenshot")
+    time.sleep(0.2)                                    # written in full
+    return np.asarray(Image.open(path).convert("RGB"))
 
 
 def frame_of(pg) -> tuple[int, int, int]:
@@ -205,8 +244,11 @@ def test_page_shows_the_sample_and_the_time_slider_moves_it(page, history):
 
 @needs_browser
 def test_the_mouse_turns_the_view_and_play_runs_the_frames(page):
-    page.locator("#camera-iso").click()
-    before = settled(page)
+    slider_key(page, "frame-slider", "End")          # (the server keeps the last test's)
+    wait_until(lambda: frame_of(page)[0] == frame_of(page)[1] - 1, what="the last frame")
+    after(page, page.locator("#camera-top").click)
+    before = after(page, page.locator("#camera-iso").click)
+    shot_before = screenshot_pixels(page)
     box = page.locator("#view3d canvas").bounding_box()
     x, y = box["x"] + box["width"] / 2, box["y"] + box["height"] / 2
     page.mouse.move(x, y)
@@ -215,10 +257,13 @@ def test_the_mouse_turns_the_view_and_play_runs_the_frames(page):
         page.mouse.move(x + 12 * k, y + 3 * k)
     page.mouse.up()
     turned = settled(page, before)
+    assert not text(page, "#picked").strip(), "the drag that turned the view picked"
     assert np.abs(turned.astype(int) - before.astype(int)).sum(axis=2).__gt__(30).mean() > 0.01
-    page.locator("#camera-reset").click()
-    reset = settled(page, turned)
-    assert np.abs(reset.astype(int) - before.astype(int)).sum(axis=2).__gt__(30).mean() < 0.01
+    # the screenshot button writes the turned view (client mode: the browser's camera
+    # reaches the server once the mouse lets go)
+    shot_turned = screenshot_pixels(page)
+    assert np.abs(shot_turned.astype(int) - shot_before.astype(int)).sum(axis=2).__gt__(
+        30).mean() > 0.01, "the screenshot did not follow the mouse's turn"
     slider_key(page, "frame-slider", "Home")
     wait_until(lambda: frame_of(page)[0] == 0)
     page.locator("#play").click()
@@ -228,6 +273,13 @@ def test_the_mouse_turns_the_view_and_play_runs_the_frames(page):
     k = frame_of(page)[0]
     time.sleep(1.5)
     assert frame_of(page)[0] == k, "pause did not stop the frames"
+    slider_key(page, "frame-slider", "End")          # back to the frame of `before`
+    n = frame_of(page)[1]
+    wait_until(lambda: frame_of(page)[0] == n - 1)
+    played = settled(page)
+    page.locator("#camera-reset").click()
+    reset = settled(page, played)
+    assert np.abs(reset.astype(int) - before.astype(int)).sum(axis=2).__gt__(30).mean() < 0.01
 
 
 @needs_browser
@@ -285,12 +337,14 @@ def test_colour_limits_are_those_of_the_whole_run(page, history):
 
 @needs_browser
 def test_picking_a_bead_shows_its_id_and_values(page, history):
-    page.locator("#camera-front").click()
     set_check(page, "layer-sand", True)
-    settled(page)
+    after(page, page.locator("#camera-top").click)   # (the last test's view may be front)
+    after(page, page.locator("#camera-front").click)
+    stale = text(page, "#picked").strip()
     box = page.locator("#view3d canvas").bounding_box()
     page.mouse.click(box["x"] + box["width"] / 2, box["y"] + box["height"] / 2)
-    lines = wait_until(lambda: text(page, "#picked").strip() or None, what="a pick")
+    lines = wait_until(lambda: text(page, "#picked").strip() not in ("", stale) and
+                       text(page, "#picked").strip(), what="a pick")
     m = re.search(r"bead (\d+)", lines)
     assert m, lines
     b = int(m.group(1))
@@ -330,7 +384,7 @@ def test_screenshot_writes_the_view(page, history):
     if not path.is_absolute():
         path = ROOT / path
     assert path.exists() and path.stat().st_size > 1000
-    assert path.parent == Path(history).parent / "shots"
+    assert path.parent.parent == Path(history).parent and path.parent.name.startswith("shots")
 
 
 @needs_browser

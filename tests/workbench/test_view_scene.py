@@ -279,3 +279,70 @@ def test_a_history_whose_writer_was_killed_is_shown(tmp_path):
     (entry,) = find_runs(tmp_path)
     assert "being written" in entry.status or "not closed" in entry.status
     assert out.read_bytes() == before                  # only read
+
+
+def test_glyphs_put_spheres_and_sticks_where_the_beads_and_links_are():
+    """``--mode client``'s glyphs (workbench.view.glyphs): a sphere of the bead's diameter
+    at its centre, a cylinder from one end of a link to the other of the link's radius
+    (the pixels of a picture by VTK's glyph mapper: VTK's own bounds of a glyph mapper
+    are conservative, not the glyphs' extent), and what the page is sent: the
+    glyphed points with their scale and orientation arrays, the glyph mesh, the mapper's
+    scaling and orientation."""
+    import pyvista as pv
+    from trame_vtk.modules.vtk.serializers.synchronization_context import (
+        SynchronizationContext)
+
+    from workbench import meshes, render
+    from workbench.view import glyphs
+
+    render.headless_backend()
+    # seen from the front (along +y) in parallel projection: 20 µm a pixel
+    pl = pv.Plotter(off_screen=True, window_size=(300, 300))
+    pl.set_background("white")
+    c, rb = np.array([2e-3, 0.0, 2e-3]), 1e-3
+    beads = meshes.Part(points=c[None], cell_type="vertex", cells=np.zeros((1, 1), int),
+                        point_data={"radius": np.array([rb])})
+    glyphs.sphere_actor(pl, beads, "beads", color="red")
+    p0, p1, r = np.array([-2e-3, 0.0, 0.0]), np.array([-2e-3, 0.0, 4e-3]), 3e-4
+    link = meshes.Part(points=np.array([p0, p1]), cell_type="line",
+                       cells=np.array([[0, 1]]))
+    s = glyphs.stick_actor(pl, link, np.array([7.0]), np.array([r]), np.array([True]),
+                           "link", color="blue")
+    pl.camera.parallel_projection = True
+    pl.camera.focal_point, pl.camera.position, pl.camera.up = (0, 0, 2e-3), (0, -1, 2e-3), \
+        (0, 0, 1)
+    pl.camera.parallel_scale = 3e-3
+    img = pl.screenshot(return_img=True).astype(int)
+    px = 6e-3 / 300
+
+    def extent(mask):        # [x0, x1, z0, z1] [m] of the pixels of mask
+        ys, xs = np.nonzero(mask)
+        return np.array([xs.min() * px - 3e-3, (xs.max() + 1) * px - 3e-3,
+                         5e-3 - (ys.max() + 1) * px, 5e-3 - ys.min() * px])
+
+    red = (img[..., 0] - img[..., 2] > 60)
+    blue = (img[..., 2] - img[..., 0] > 60)
+    # two pixels of tolerance; the sphere's polygon is within its radius (8 x 6 sides)
+    tol = 2 * px
+    e = extent(red)
+    assert e[2:] == pytest.approx([c[2] - rb, c[2] + rb], abs=tol)
+    assert c[0] - rb - tol <= e[0] and e[1] <= c[0] + rb + tol
+    assert e[1] - e[0] > 2 * rb * np.cos(np.pi / glyphs.SPHERE_RES[0]) - tol
+    e = extent(blue)
+    assert e[2:] == pytest.approx([0.0, 4e-3], abs=tol)            # along the link
+    assert e[:2] == pytest.approx([-2e-3 - r, -2e-3 + r], abs=tol)  # its diameter
+    assert glyphs.stick_actor(pl, link, np.array([7.0]), np.array([r]), np.array([False]),
+                              "none") is None
+
+    glyphs.register()
+    ctx = SynchronizationContext()
+    m = s.GetMapper()
+    out = glyphs._glyph_serializer(s, m, "m1", ctx, 1)
+    assert out["type"] == "vtkGlyph3DMapper"
+    props = out["properties"]
+    assert props["scaleArray"] == glyphs.SCALE and props["scaleMode"] == 2   # components
+    assert props["orient"] and props["orientationMode"] == 0                 # direction
+    assert props["orientationArray"] == glyphs.ORIENT
+    assert [c[1][1] for c in out["calls"] if c[0] == "setInputData"] == [0, 1]
+    fields = {f["name"] for f in out["dependencies"][0]["properties"]["fields"]}
+    assert {glyphs.SCALE, glyphs.ORIENT, "value"} <= fields

@@ -39,6 +39,8 @@ LOD_RATIO, LOD_QUALITY = 0.6, 70
 #: the demo's run: 0.05 s).
 STILL_AFTER_S, STILL_QUALITY = 0.25, 92
 LOD_ABOVE_S = 0.1
+#: the ref of the client-side view in the page (trame.refs)
+VIEW_REF = "nscd_view"
 #: Frame states kept in memory (about 20 MB each at the paper's scale with contacts).
 CACHED_FRAMES = 8
 #: Play speeds [frames per second].
@@ -128,7 +130,7 @@ class Viewer:
             pl = pv.Plotter(off_screen=True, window_size=list(self.window_size),
                             theme=render.theme())
             self.scene = ViewScene(source.model, plotter=pl,
-                                   spheres="gaussian" if self.mode == "server" else "points")
+                                   spheres="gaussian" if self.mode == "server" else "glyphs")
         else:
             self.scene.plotter.clear_actors()
             for title in list(self.scene.plotter.scalar_bars.keys()):
@@ -287,7 +289,41 @@ class Viewer:
     # ---------------------------------------------------------------- actions
     def set_camera(self, name: str) -> None:
         self.scene.set_camera(name)
-        self._push(fast=True)
+        js = getattr(self, "_camera_js", None)
+        if self.mode == "client" and js is not None:
+            # vtk.js applies a synchronised camera once only: a preset is set in the page
+            # (the scene itself has not changed), and the lights follow it (static/view.js)
+            c = self.scene.plotter.camera
+            js.exec({"position": list(c.position), "focalPoint": list(c.focal_point),
+                     "viewUp": list(c.up), "viewAngle": float(c.view_angle),
+                     "parallelProjection": int(c.parallel_projection),
+                     "parallelScale": float(c.parallel_scale)})
+        else:
+            self._push(fast=True)
+
+    def client_camera(self, cam) -> None:
+        """The browser's camera (``--mode client``, after a turn, pan or zoom with the
+        mouse: vtk.js's ``getCamera()``) set on the server's, so that the screenshot
+        button writes the view the user sees."""
+        if not isinstance(cam, dict):
+            return
+
+        def vec(v):
+            if isinstance(v, dict):                  # a typed array, as an object
+                v = [v[k] for k in sorted(v, key=int)]
+            return [float(x) for x in v]
+
+        try:
+            c = self.scene.plotter.camera
+            c.position, c.focal_point, c.up = (vec(cam[k]) for k in
+                                               ("position", "focalPoint", "viewUp"))
+            if "viewAngle" in cam:
+                c.view_angle = float(cam["viewAngle"])
+            if "parallelScale" in cam:
+                c.parallel_scale = float(cam["parallelScale"])
+            self.scene.plotter.renderer.ResetCameraClippingRange()
+        except (KeyError, TypeError, ValueError):
+            return
 
     def screenshot(self) -> str:
         self._full_size()
@@ -484,6 +520,7 @@ class Viewer:
                 self.choose_run(run_index)
 
         ctrl.camera = self.set_camera
+        ctrl.client_camera = self.client_camera
         ctrl.screenshot = self.screenshot
         ctrl.on_click = self.on_click
         self.server.trigger("curve_click")(self.on_curve_click)
@@ -494,7 +531,7 @@ class Viewer:
         plotly_js = Path(importlib.util.find_spec("plotly").origin).parent / "package_data"
         self.server.enable_module({
             "serve": {"__nscd_view": str(STATIC), "__nscd_plotly": str(plotly_js)},
-            "scripts": ["__nscd_view/curves.js"]})
+            "scripts": ["__nscd_view/curves.js", "__nscd_view/view.js"]})
 
         def step_by(d):
             s.frame = int(np.clip(int(s.frame) + d, 0, self.source.n_frames - 1))
@@ -601,8 +638,17 @@ class Viewer:
                                                       interactive_ratio=1, still_quality=92,
                                                       interactive_quality=70, **view_kw)
                         else:
-                            view = vtkw.VtkLocalView(self.scene.plotter.render_window,
-                                                     **view_kw)
+                            # the browser's camera, once the mouse has let it go, becomes
+                            # the server's (screenshots and presets start from it)
+                            view = vtkw.VtkLocalView(
+                                self.scene.plotter.render_window, ref=VIEW_REF,
+                                interactor_events=("['EndAnimation']",),
+                                EndAnimation=(ctrl.client_camera,
+                                              f"[trame.refs['{VIEW_REF}'].getCamera()]"),
+                                after_scene_loaded=f"window.nscdView.followLights('{VIEW_REF}')",
+                                **view_kw)
+                            self._camera_js = client.JSEval(
+                                exec=f"window.nscdView.setCamera('{VIEW_REF}', $event)")
                         ctrl.view_update = view.update
                         self.view = view
                     with html.Div(v_show="has_curves && show_curves",

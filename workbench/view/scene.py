@@ -20,6 +20,7 @@ import numpy as np
 
 from .. import meshes, render
 from ..units import reading_unit
+from . import glyphs
 from .source import FIELDS
 
 __all__ = ["ViewOptions", "ViewScene", "LAYERS"]
@@ -82,10 +83,11 @@ class ViewScene:
         render.headless_backend()
         import pyvista as pv
 
-        if spheres not in ("gaussian", "points"):
-            raise ValueError(f"spheres must be 'gaussian' or 'points', got {spheres!r}")
-        #: "gaussian": point-Gaussian impostors at the true radius (VTK); "points": round
-        #: points of a fixed size in pixels (what vtk.js can draw: ``--mode client``)
+        if spheres not in ("gaussian", "glyphs"):
+            raise ValueError(f"spheres must be 'gaussian' or 'glyphs', got {spheres!r}")
+        #: "gaussian": point-Gaussian impostors at the true radius (VTK); "glyphs": a
+        #: sphere mesh glyphed at each bead, at its radius (what vtk.js can draw:
+        #: ``--mode client``, :mod:`workbench.view.glyphs`)
         self.spheres = spheres
         self.model = model
         self.plotter = plotter if plotter is not None else pv.Plotter(
@@ -187,10 +189,8 @@ class ViewScene:
                 kw = dict(color=render.WIRE_COLOR, show_scalar_bar=False)
             if name == "sand" and opts.ghost:
                 self._ghost(part, kw)
-            elif self.spheres == "points":
-                pl.add_mesh(part.to_polydata(), style="points", name=name,
-                            point_size=self._point_px(part), render_points_as_spheres=True,
-                            **kw)
+            elif self.spheres == "glyphs":
+                glyphs.sphere_actor(pl, part, name, **kw)
             else:
                 render._spheres(pl, part, name, **kw)
 
@@ -212,9 +212,7 @@ class ViewScene:
             for mask, nm, kw in ((shown & ~taut & ~broken, "wire_slack",
                                   dict(color=render.SLACK_COLOR)),
                                  (shown & broken, "wire_broken", dict(color=render.BROKEN_COLOR))):
-                tubes = render._tube_lines(wp, t, rad, mask, 10)
-                if tubes is not None:
-                    pl.add_mesh(tubes, name=nm, show_scalar_bar=False, smooth_shading=True, **kw)
+                self._lines(wp, t, rad, mask, 10, nm, show_scalar_bar=False, **kw)
             shown_field = color_by if layer_of == "wire" else None
             self._tubes(wp, "wire_taut", rad, taut, 10, shown_field,
                         wp.cell_data[shown_field] if shown_field else t, render.WIRE_COLOR,
@@ -257,31 +255,30 @@ class ViewScene:
         if first or reset_camera:
             self.set_camera("iso")
 
+    def _lines(self, part, values, rad, mask, n_sides, name, **kw):
+        """The line cells of ``part`` where ``mask`` as tubes of radii ``rad`` [m] (a tube
+        mesh of ``n_sides``, or glyphed cylinders with ``spheres="glyphs"``: what the
+        browser gets at each frame is then ~15 times smaller), carrying ``values`` as
+        ``"value"``; ``kw``: :meth:`pyvista.Plotter.add_mesh`'s colour arguments."""
+        if self.spheres == "glyphs":
+            glyphs.stick_actor(self.plotter, part, values, rad, mask, name, **kw)
+            return
+        tubes = render._tube_lines(part, values, rad, mask, n_sides)
+        if tubes is not None:
+            self.plotter.add_mesh(tubes, name=name, smooth_shading=True, **kw)
+
     def _tubes(self, part, name, rad, mask, n_sides, field, values, color, opts, limits):
         """Tubes of ``part``'s lines where ``mask`` (radii ``rad`` [m]): coloured by
         ``values`` with a colour bar when ``field`` is the field shown, else in ``color``."""
         if field is None:
-            tubes = render._tube_lines(part, values, rad, mask, n_sides)
-            if tubes is not None:
-                self.plotter.add_mesh(tubes, color=color, name=name, smooth_shading=True,
-                                      show_scalar_bar=False)
+            self._lines(part, values, rad, mask, n_sides, name, color=color,
+                        show_scalar_bar=False)
             return
         lo, hi = limits(values)
         factor, bar = self._bar(field, FIELDS[field][1], lo, hi)
-        tubes = render._tube_lines(part, values * factor, rad, mask, n_sides)
-        if tubes is not None:
-            self.plotter.add_mesh(tubes, scalars="value", cmap=opts.cmap, name=name,
-                                  clim=(lo * factor, hi * factor), log_scale=opts.log,
-                                  smooth_shading=True, show_scalar_bar=True,
-                                  scalar_bar_args=bar)
-
-    def _point_px(self, part) -> float:
-        """The size [px] of a point drawing a bead of the mean radius, for the window and
-        the framing of the scene's box (the camera presets' distance)."""
-        h = float(self.plotter.window_size[1])
-        size = float(np.linalg.norm(self.bounds[1] - self.bounds[0])) or 1.0
-        r = float(np.mean(part.point_data["radius"]))
-        return max(2.0, min(40.0, 2.0 * r / size * h * 1.1))
+        self._lines(part, values * factor, rad, mask, n_sides, name, scalars="value",
+                    cmap=opts.cmap, clim=(lo * factor, hi * factor), log_scale=opts.log,
+                    show_scalar_bar=True, scalar_bar_args=bar)
 
     def _ghost(self, part, kw):
         """Sand translucent: low-resolution polygon spheres (see module doc)."""
@@ -290,11 +287,11 @@ class ViewScene:
         mesh = part.to_polydata()
         mesh.point_data["diameter"] = 2.0 * part.point_data["radius"]
         ball = pv.Sphere(radius=0.5, theta_resolution=8, phi_resolution=6)
-        glyphs = mesh.glyph(geom=ball, scale="diameter", orient=False, factor=1.0)
+        balls = mesh.glyph(geom=ball, scale="diameter", orient=False, factor=1.0)
         kw = dict(kw)
         if "scalars" not in kw:
             kw.pop("show_scalar_bar", None)
-        self.plotter.add_mesh(glyphs, name="sand_ghost", opacity=_GHOST_OPACITY,
+        self.plotter.add_mesh(balls, name="sand_ghost", opacity=_GHOST_OPACITY,
                               smooth_shading=True, **kw)
 
     def _torus(self, state):

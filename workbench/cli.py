@@ -596,12 +596,11 @@ def parser() -> argparse.ArgumentParser:
     v.add_argument("--follow", action="store_true",
                    help="show a run that is still being written: new frames and curve points "
                         "appear as they are flushed")
-    from .view.app import MODES
-    v.add_argument("--mode", choices=MODES, default="server",
-                   help="server (default): rendered on this machine with the pictures' "
-                        "pipeline, beads at their true radius as nscd render draws them; "
-                        "client: rendered by the browser (vtk.js), faster frame changes on "
-                        "large runs (docs/view.md), beads drawn as square points")
+    from .view.app import DEFAULT_MODE, MODES
+    v.add_argument("--mode", choices=MODES, default=DEFAULT_MODE,
+                   help="client (default): rendered by the browser (vtk.js), the faster frame "
+                        "changes on large runs (docs/view.md); server: rendered on this "
+                        "machine with the pictures' pipeline (nscd render's beads)")
     v.add_argument("--shots", default="out/view", help="folder of the screenshots "
                                                        "(default out/view)")
     v.set_defaults(fn=cmd_view)

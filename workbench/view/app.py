@@ -3,11 +3,12 @@
 
 The UI state is a small set of named values (``frame``, ``color_by``, ``clip_axis`` ...);
 each change is handled by one callback that redraws the scene and updates the view
-(DESIGN §6, trame).  The 3D view is either rendered on the server (``mode="server"``, the
-default: the very VTK pipeline of :mod:`workbench.render`, images streamed to the browser)
-or in the browser by vtk.js (``mode="client"``: the scene's meshes are sent; spheres are
-drawn as points there, vtk.js has no point-Gaussian mapper).  The browser never sends a
-path: it picks a run by its index in the list the server was given.
+(DESIGN §6, trame).  The 3D view is either rendered in the browser by vtk.js
+(``mode="client"``, the default: the faster at the paper's scale, docs/view.md; the beads
+and links are sent as glyphs, :mod:`workbench.view.glyphs`) or on the server
+(``mode="server"``: the very VTK pipeline of :mod:`workbench.render`, images streamed to
+the browser).  The browser never sends a path: it picks a run by its index in the list
+the server was given.
 """
 from __future__ import annotations
 
@@ -19,13 +20,13 @@ import numpy as np
 
 from .. import render
 from ..units import reading_unit
+from . import DEFAULT_MODE, MODES
 from . import curves as _curves
 from .scene import LAYERS, ViewOptions, ViewScene
 from .source import FIELDS, RunSource, ViewInputError, curves_of
 
-__all__ = ["Viewer", "MODES", "SPEEDS"]
+__all__ = ["Viewer", "MODES", "DEFAULT_MODE", "SPEEDS"]
 
-MODES = ("server", "client")
 #: The page's own scripts (the curves panel).
 STATIC = Path(__file__).resolve().parent / "static"
 #: Seconds between two tries to push a rendered image still being encoded (trame-vtk: 0.5).
@@ -84,13 +85,13 @@ class Viewer:
     follow : bool
         Poll the history every ``poll`` seconds for new frames and records (a run being
         written).
-    mode : "server" or "client"
+    mode : "client" (default, :data:`DEFAULT_MODE`) or "server"
     shots : folder of the screenshots (default ``out/view``)
     name : the trame server's name (several viewers in one process need their own)
     """
 
     def __init__(self, source: RunSource | None = None, runs=None, *, follow: bool = False,
-                 mode: str = "server", shots="out/view", poll: float = 1.0,
+                 mode: str = DEFAULT_MODE, shots="out/view", poll: float = 1.0,
                  name: str | None = None, window_size=(900, 600)):
         if mode not in MODES:
             raise ValueError(f"mode must be one of {', '.join(MODES)}, got {mode!r}")

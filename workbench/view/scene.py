@@ -257,8 +257,8 @@ class ViewScene:
 
     def _lines(self, part, values, rad, mask, n_sides, name, **kw):
         """The line cells of ``part`` where ``mask`` as tubes of radii ``rad`` [m] (a tube
-        mesh of ``n_sides``, or glyphed cylinders with ``spheres="glyphs"``: what the
-        browser gets at each frame is then ~15 times smaller), carrying ``values`` as
+        mesh of ``n_sides``, or glyphed cylinders with ``spheres="glyphs"``: a few
+        floats a link for the browser, :mod:`workbench.view.glyphs`), carrying ``values`` as
         ``"value"``; ``kw``: :meth:`pyvista.Plotter.add_mesh`'s colour arguments."""
         if self.spheres == "glyphs":
             glyphs.stick_actor(self.plotter, part, values, rad, mask, name, **kw)

@@ -22,6 +22,7 @@ from .. import render
 from ..units import reading_unit
 from . import DEFAULT_MODE, MODES
 from . import curves as _curves
+from . import glyphs
 from .scene import LAYERS, ViewOptions, ViewScene
 from .source import FIELDS, RunSource, ViewInputError, curves_of
 
@@ -258,6 +259,8 @@ class Viewer:
         live = self.mode == "server" and getattr(self.server, "protocol", None) is not None \
             and hasattr(helper, "set_image_quality")
         if not live:
+            if self.mode == "client":
+                glyphs.register()              # (trame-vtk may have put its own back)
             self.ctrl.view_update()
             return
         rw = self.scene.plotter.render_window
@@ -325,6 +328,18 @@ class Viewer:
             self.scene.plotter.renderer.ResetCameraClippingRange()
         except (KeyError, TypeError, ValueError):
             return
+
+    def on_view_size(self, width, height) -> None:
+        """The page's view size [px] (static/view.js): client mode renders its screenshots
+        at it (server mode: the view sizes the server's window itself)."""
+        if self.mode != "client":
+            return
+        try:
+            w, h = int(width), int(height)
+        except (TypeError, ValueError):
+            return
+        if 10 <= w <= 8192 and 10 <= h <= 8192:
+            self.scene.plotter.window_size = [w, h]
 
     def screenshot(self) -> str:
         self._full_size()
@@ -525,6 +540,7 @@ class Viewer:
         ctrl.screenshot = self.screenshot
         ctrl.on_click = self.on_click
         self.server.trigger("curve_click")(self.on_curve_click)
+        self.server.trigger("view_size")(self.on_view_size)
         # the curves panel's script, and plotly.js which it loads on demand (the plotly
         # package's own copy, found without importing the package)
         import importlib.util
@@ -639,6 +655,10 @@ class Viewer:
                                                       interactive_ratio=1, still_quality=92,
                                                       interactive_quality=70, **view_kw)
                         else:
+                            # our serializers, put back before the view's first scene
+                            # (trame-vtk sets its own when its protocol starts)
+                            self.server.controller.on_server_ready.add(
+                                lambda **_: glyphs.register())
                             # the browser's camera, once the mouse has let it go, becomes
                             # the server's (screenshots and presets start from it)
                             view = vtkw.VtkLocalView(

@@ -30,7 +30,6 @@ SPHERE_RES = (8, 6)
 #: sides of the glyph cylinder (as the tubes of workbench.render: 10 for the wire)
 STICK_RES = 10
 
-_registered = False
 #: the glyphed points' arrays (fixed names: VTK has no getter for them)
 SCALE = "glyph_scale"
 ORIENT = "glyph_orient"
@@ -84,18 +83,53 @@ def _glyph_serializer(parent, mapper, mapper_id, context, depth):
             "calls": calls, "dependencies": deps}
 
 
+def _scalar_bar_serializer(parent, actor, actor_id, context, depth):
+    """A colour bar for vtk.js as VTK lays it out: trame-vtk's own serializer sends every
+    bar vertical at the same place, in a serif font, so the toroidal map's horizontal bar
+    was drawn over the field's.  Here vtk.js's automatic layout gets the bar's orientation
+    (vertical: at the right, horizontal: at the bottom) and the theme's font family."""
+    from trame_vtk.modules.vtk.serializers.cache import cache_properties
+    from trame_vtk.modules.vtk.serializers.serialize import serialize
+    from trame_vtk.modules.vtk.serializers.utils import reference_id, wrap_id
+
+    lut = actor.GetLookupTable()
+    if not lut:
+        return None
+    lid = reference_id(lut)
+    inst = serialize(actor, lut, lid, context, depth + 1)
+    if not inst:
+        return None
+    title = actor.GetTitleTextProperty()
+    color = "#%02x%02x%02x" % tuple(int(round(255 * c)) for c in title.GetColor())
+    family = {"Arial": "Arial, Helvetica, sans-serif", "Courier": "Courier, monospace",
+              "Times": "Times, serif"}.get(title.GetFontFamilyAsString(), "sans-serif")
+    style = {"fontColor": color, "fontStyle": "normal", "fontFamily": family}
+    props = {
+        "visibility": actor.GetVisibility(), "pickable": 0, "dragable": 0,
+        "useBounds": actor.GetUseBounds(), "automated": True,
+        "axisLabel": actor.GetTitle(),
+        "orientation": "horizontal" if actor.GetOrientation() == 0 else "vertical",
+        "axisTextStyle": dict(style), "tickTextStyle": dict(style),
+        "drawNanAnnotation": actor.GetDrawNanAnnotation(),
+        "drawBelowRangeSwatch": actor.GetDrawBelowRangeSwatch(),
+        "drawAboveRangeSwatch": actor.GetDrawAboveRangeSwatch(),
+    }
+    return {"parent": reference_id(parent), "id": actor_id, "type": "vtkScalarBarActor",
+            "properties": cache_properties(actor_id, context, props),
+            "calls": [["setScalarsToColors", [wrap_id(lid)]]], "dependencies": [inst]}
+
+
 def register() -> None:
-    """Teach trame-vtk's serializer VTK's glyph mapper (once)."""
-    global _registered
-    if _registered:
-        return
+    """Teach trame-vtk's serializer VTK's glyph mapper, and colour bars as VTK lays them
+    out.  Cheap, and called before each scene goes to the page: trame-vtk puts its own
+    serializers back when its protocol starts (its colour bar's among them)."""
     from trame_vtk.modules.vtk.serializers.registry import (register_instance_serializer,
                                                             register_js_class)
 
     for cls in ("vtkGlyph3DMapper", "vtkOpenGLGlyph3DMapper"):
         register_js_class(cls, "vtkGlyph3DMapper")
     register_instance_serializer("vtkGlyph3DMapper", _glyph_serializer)
-    _registered = True
+    register_instance_serializer("vtkScalarBarActor", _scalar_bar_serializer)
 
 
 def _glyph_actor(pl, pts, source, name: str, scalars, kw, *, by_components=False):

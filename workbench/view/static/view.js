@@ -56,5 +56,19 @@
     if (moved > DRAG_PX) e.stopPropagation();
   }, true);
 
+  // The view's size in pixels, sent to the server when it changes (client mode: the
+  // screenshot button renders the server's copy of the scene at that size, as the view
+  // shows it; in server mode the view sizes the server's window itself).
+  let sent = "";
+  setInterval(() => {
+    const cv = document.querySelector("#view3d canvas");
+    if (!cv || !window.trame || !window.trame.trigger || !cv.width || !cv.height) return;
+    const size = `${cv.width}x${cv.height}`;
+    if (size !== sent) {
+      sent = size;
+      window.trame.trigger("view_size", [cv.width, cv.height]);
+    }
+  }, 500);
+
   window.nscdView = { followLights, setCamera };
 })();

@@ -134,6 +134,7 @@ class Viewer:
             self.scene = ViewScene(source.model, plotter=pl,
                                    spheres="gaussian" if self.mode == "server" else "glyphs")
         else:
+            self.scene.retire()
             self.scene.plotter.clear_actors()
             for title in list(self.scene.plotter.scalar_bars.keys()):
                 self.scene.plotter.remove_scalar_bar(title, render=False)

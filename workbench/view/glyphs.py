@@ -166,6 +166,7 @@ def _glyph_actor(pl, pts, source, name: str, scalars, kw, *, by_components=False
         g.SetUseLookupTableScalarRange(old.GetUseLookupTableScalarRange())
         g.SetColorModeToMapScalars()
     actor.SetMapper(g)
+    _SWAPPED.append(old)            # kept, not freed: see ViewScene.retire
     prop = actor.GetProperty()
     prop.SetRepresentationToSurface()
     prop.SetInterpolationToPhong()
@@ -173,6 +174,17 @@ def _glyph_actor(pl, pts, source, name: str, scalars, kw, *, by_components=False
 
 
 _SOURCES: dict = {}
+#: pyvista's mappers swapped out of glyph actors, kept alive (their data released) so that
+#: no object the page knows by its address gets a new one's (ViewScene.retire)
+_SWAPPED: list = []
+_RELEASED = [0]
+
+
+def release_swapped() -> None:
+    """Release the data of the swapped-out mappers not yet released (kept alive)."""
+    for m in _SWAPPED[_RELEASED[0]:]:
+        m.RemoveAllInputs()
+    _RELEASED[0] = len(_SWAPPED)
 
 
 def _source(kind: str):

@@ -99,8 +99,31 @@ class ViewScene:
         #: the cylinder of the toroidal map: "wall" (the scene's cylinder), "sample" (the
         #: vertical cylinder holding the spheres, each frame: a membrane test) or None
         self.cylinder = None
+        self._retired, self._retired_ids = [], set()       # (see retire)
 
     # ---------------------------------------------------------------- drawing
+    def retire(self) -> None:
+        """Keep every actor and colour bar on show alive after it leaves the scene, its
+        data released (``spheres="glyphs"``, the browser's scene).  trame-vtk names the
+        objects it sends to the page by their memory address: a frame's new actor, mapper
+        or lookup table allocated where an old object of another type was made the page
+        update the wrong kind of object (seen: "getLookupTable(...).setRange is not a
+        function" during a followed run).  Kept, no address is reused; the cost is a few
+        kB a frame change, until the layers are updated in place (docs/view.md)."""
+        if self.spheres != "glyphs":
+            return
+        pl = self.plotter
+        for obj in [*pl.renderer.actors.values(), *pl.scalar_bars.values()]:
+            if id(obj) in self._retired_ids:
+                continue
+            self._retired_ids.add(id(obj))
+            self._retired.append(obj)
+        for obj in self._retired[-64:]:
+            m = obj.GetMapper() if hasattr(obj, "GetMapper") else None
+            if m is not None and not pl.renderer.HasViewProp(obj):
+                m.RemoveAllInputs()
+        glyphs.release_swapped()
+
     def _clear(self, *names):
         for n in names:
             self.plotter.remove_actor(n, render=False)
@@ -133,6 +156,7 @@ class ViewScene:
         layer_of = FIELDS[color_by][0]
         self.bar = None
         self._drawn = {}
+        self.retire()
         for title in list(pl.scalar_bars.keys()):
             pl.remove_scalar_bar(title, render=False)
 

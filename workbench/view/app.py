@@ -316,7 +316,10 @@ class Viewer:
         def vec(v):
             if isinstance(v, dict):                  # a typed array, as an object
                 v = [v[k] for k in sorted(v, key=int)]
-            return [float(x) for x in v]
+            out = [float(x) for x in v]
+            if len(out) != 3 or not np.all(np.isfinite(out)):
+                raise ValueError(f"not a finite 3-vector: {v!r}")
+            return out
 
         try:
             c = self.scene.plotter.camera

@@ -99,7 +99,7 @@ class ViewScene:
         #: the cylinder of the toroidal map: "wall" (the scene's cylinder), "sample" (the
         #: vertical cylinder holding the spheres, each frame: a membrane test) or None
         self.cylinder = None
-        self._retired, self._retired_ids = [], set()       # (see retire)
+        self._retired, self._retired_ids, self._on_show = [], set(), []   # (see retire)
 
     # ---------------------------------------------------------------- drawing
     def retire(self) -> None:
@@ -114,14 +114,17 @@ class ViewScene:
             return
         pl = self.plotter
         for obj in [*pl.renderer.actors.values(), *pl.scalar_bars.values()]:
-            if id(obj) in self._retired_ids:
-                continue
-            self._retired_ids.add(id(obj))
-            self._retired.append(obj)
-        for obj in self._retired[-64:]:
-            m = obj.GetMapper() if hasattr(obj, "GetMapper") else None
-            if m is not None and not pl.renderer.HasViewProp(obj):
-                m.RemoveAllInputs()
+            if id(obj) not in self._retired_ids:
+                self._retired_ids.add(id(obj))
+                self._retired.append(obj)
+                self._on_show.append(obj)
+        shown = []
+        for obj in self._on_show:               # released once out of the scene
+            if pl.renderer.HasViewProp(obj):
+                shown.append(obj)
+            elif hasattr(obj, "GetMapper") and obj.GetMapper() is not None:
+                obj.GetMapper().RemoveAllInputs()
+        self._on_show = shown
         glyphs.release_swapped()
 
     def _clear(self, *names):

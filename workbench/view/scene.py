@@ -83,6 +83,12 @@ class ViewScene:
         render.headless_backend()
         import pyvista as pv
 
+        if spheres == "points":                   # the name until 2026-12-03
+            import warnings
+
+            warnings.warn('ViewScene(spheres="points") is now spheres="glyphs" (spheres '
+                          'of their radius in the browser)', DeprecationWarning, stacklevel=2)
+            spheres = "glyphs"
         if spheres not in ("gaussian", "glyphs"):
             raise ValueError(f"spheres must be 'gaussian' or 'glyphs', got {spheres!r}")
         #: "gaussian": point-Gaussian impostors at the true radius (VTK); "glyphs": a

@@ -218,6 +218,30 @@ def _paper_test(name):
     return experiment
 
 
+def _check_type(name, value, annotation) -> None:
+    """``value`` of the type a paper test's parameter ``name`` is annotated with (``int``,
+    ``float``, ``bool``, ``str``, or one of them ``| None``): a grid value that is not
+    would make the case fail on every attempt, or worse run with a string compared to a
+    number ("steps=abc" ran twice before it was refused)."""
+    ann = str(annotation).replace(" ", "")
+    kinds = set(ann.split("|"))
+    if value is None and "None" in kinds:
+        return
+    kinds.discard("None")
+    if len(kinds) != 1 or not kinds <= {"int", "float", "bool", "str"}:
+        return                                      # other annotations: not checked here
+    kind = kinds.pop()
+    is_bool = isinstance(value, bool)
+    ok = {"int": isinstance(value, int) and not is_bool,
+          "float": isinstance(value, (int, float)) and not is_bool
+          and math.isfinite(float(value)),
+          "bool": is_bool, "str": isinstance(value, str)}[kind]
+    if not ok:
+        what = {"int": "an integer", "float": "a finite number", "bool": "true or false",
+                "str": "a text"}[kind]
+        raise ValueError(f"{name} must be {what}, got {value!r}")
+
+
 def _check_paper_cases(name, cases, fixed) -> None:
     """Refuse, before anything runs, a case of a paper test with a parameter the test does
     not take, a wire it cannot build, a bad scale or solver options out of range (naming
@@ -240,6 +264,9 @@ def _check_paper_cases(name, cases, fixed) -> None:
             raise ValueError(f"{name} takes no parameter {', '.join(map(repr, bad))}; its "
                              f"parameters are {', '.join(sorted(allowed))}")
         try:
+            for n, v in c.items():
+                if n in sig and n != "wire":        # (the sweep's wire is a law's name)
+                    _check_type(n, v, sig[n].annotation)
             _law(params.get("wire", "elastic"), params.get("k"))
             check_scale(params.get("scale", sig["scale"].default))
             opts = {n: params.get(n, sig[n].default) for n in solver}
@@ -565,6 +592,10 @@ def sweep(experiment, grid, client=None, *, out="out/sweep.json", retries: int =
     """
     if int(retries) < 0:
         raise ValueError(f"retries must be >= 0, got {retries!r}")
+    if client is None and not (isinstance(n_workers, int) and 1 <= n_workers <= 1024):
+        # (a cluster of no worker would only fail its cases after no_worker_timeout)
+        raise ValueError(f"n_workers (--workers) must be an integer in [1, 1024], "
+                         f"got {n_workers!r}")
     fn = _resolve(experiment)
     name = _experiment_name(experiment)
     cases = expand_grid(grid)

@@ -522,6 +522,9 @@ def parse_grid(items) -> dict:
         name = name.strip()
         if not name.isidentifier():
             raise ValueError(f"--grid {it!r}: {name!r} is not a parameter name")
+        if name in grid:
+            raise ValueError(f"--grid {it!r}: {name} is given twice; give its values once, "
+                             f"comma-separated ({name}=V1,V2)")
         grid[name] = [_value(v.strip()) for v in vals.split(",") if v.strip()]
         if not grid[name]:
             raise ValueError(f"--grid {it!r}: no value")

@@ -217,12 +217,32 @@ def test_named_experiment_rejects_bad_input_before_running(tmp_path):
            ({"scale": [0.03], "theta": [0.3]}, r"theta = 0.3: must be a number in \[0.5, 1\]"),
            ({"scale": [0.0]}, r"scale must be finite and > 0"),
            ({"scale": [0.03], "frictoin": [0.3]}, "takes no parameter 'frictoin'; its "
-                                                   "parameters are .*mu_wire")]
+                                                   "parameters are .*mu_wire"),
+           # types (issue 33: "steps=abc" ran the case twice before failing)
+           ({"scale": [0.03], "ramp_steps": ["abc"]}, "ramp_steps must be an integer, got 'abc'"),
+           ({"scale": [0.03], "ramp_steps": [2.5]}, "ramp_steps must be an integer"),
+           ({"scale": [0.03], "seed": [True]}, "seed must be an integer, got True"),
+           ({"scale": [0.03], "mu": ["0.3"]}, "mu must be a finite number, got '0.3'"),
+           ({"scale": [0.03], "mu": [float("nan")]}, "parameter 'mu': nan is not finite"),
+           ({"scale": [0.03], "neighbour_contact": [1]}, "neighbour_contact must be true or "
+                                                         "false, got 1")]
     for grid, says in bad:
         with pytest.raises(ValueError, match=says):
             sweep("box_triaxial", grid, "serial", out=tmp_path / "bad.json", retries=0,
                   progress=False)
     assert not (tmp_path / "bad.json").exists()
+    # typed values of the right kinds pass the check (an int for a float, None where allowed)
+    from engine.sweep import _check_paper_cases
+
+    _check_paper_cases("box_triaxial", [{"scale": 1, "mu": 0, "seed": 3, "hot_sweeps": None,
+                                         "neighbour_contact": False}], {})
+    # a local cluster of no worker is refused at once (it would fail every case only after
+    # no_worker_timeout)
+    for n in (0, -1, 2.0):
+        with pytest.raises(ValueError, match=r"--workers\) must be an integer in \[1, 1024\]"):
+            sweep(drop, [{"height": 2e-3}], None, out=tmp_path / "w.json", n_workers=n,
+                  progress=False)
+    assert not (tmp_path / "w.json").exists()
 
 
 

@@ -349,6 +349,8 @@ def test_sweep_grid_parsing():
         parse_grid(["k"])
     with pytest.raises(ValueError, match="no value"):
         parse_grid(["k="])
+    with pytest.raises(ValueError, match="seed is given twice"):      # (kept the last)
+        parse_grid(["seed=1", "k=1", "seed=2"])
     a = parser().parse_args(["sweep", "cylinder_triaxial", "--grid", "k=1,2",
                              "--scheduler", "serial"])
     assert a.test == "cylinder_triaxial" and a.scheduler == "serial" and a.retries == 1

@@ -22,6 +22,10 @@ FREE = 0  #: integrated from forces and impulses (Eq. 3-4)
 IMPOSED = 1  #: velocity imposed (fixed bodies: imposed zero); no rotation
 LINE = 2  #: free along one direction ``body_line`` only (force- or pressure-driven walls)
 
+#: The largest ``Options.max_iter`` (NLGS sweeps per step): a billion sweeps is hours a step
+#: even on a small scene, and well inside the kernels' 64-bit counters.
+MAX_ITER_LIMIT = 10**9
+
 #: ``body_caps`` bits for cylinders.
 CAP_BOTTOM, CAP_TOP = 1, 2
 
@@ -42,7 +46,9 @@ class Options(Checked):
     tol : float
         NLGS tolerance on the "Quad" norm [-], > 0 (LMGC90's usual value: 1e-4).
     max_iter : int
-        Maximum NLGS sweeps per step, >= 1.
+        Maximum NLGS sweeps per step, in [1, 10⁹] (:data:`MAX_ITER_LIMIT`: the kernels'
+        64-bit counters honour it; 2⁶³ was accepted, and a run reported every step
+        converged with the spheres through the floor: issue 33).
     relax : float
         Relaxation ω of the NLGS update, in (0, 2).  ω < 1 under-relaxes:
         p ← p_old + ω (p_new − p_old).  ω > 1 over-relaxes (projected SOR): each contact's
@@ -86,7 +92,7 @@ class Options(Checked):
     dt: float = Field(gt=0.0, allow_inf_nan=False)
     theta: float = Field(0.5, ge=0.5, le=1.0)
     tol: float = Field(1e-4, gt=0.0, allow_inf_nan=False)
-    max_iter: int = Field(1000, ge=1)
+    max_iter: int = Field(1000, ge=1, le=MAX_ITER_LIMIT)
     relax: float = Field(1.0, gt=0.0, lt=2.0)
     alert: float = Field(ge=0.0, allow_inf_nan=False)
     skin: float = Field(gt=0.0, allow_inf_nan=False)

@@ -48,6 +48,7 @@ from typing import Literal, Optional
 from pydantic import BaseModel, ConfigDict, Field, ValidationError, model_validator
 
 from engine.checks import NumbersOnly
+from engine.model import MAX_ITER_LIMIT
 
 from .meshes import sample_cylinder  # noqa: F401  (numpy only; it lived here before)
 from .render import CAMERAS, PRESETS  # noqa: E402  (no PyVista import: it is lazy there)
@@ -71,7 +72,7 @@ class SolverParams(_Strict):
     dt: float = Field(5e-5, gt=0, le=1e-2, description="time step [s]")
     theta: float = Field(0.5, ge=0.5, le=1.0)
     tol: float = Field(3e-4, gt=0, lt=1)
-    max_iter: int = Field(1000, ge=1)
+    max_iter: int = Field(1000, ge=1, le=MAX_ITER_LIMIT)
     relax: float = Field(1.0, gt=0, lt=2,
                          description="NLGS relaxation (> 1: over-relaxation, needs anderson "
                                      "= 0 and threads = 1)")

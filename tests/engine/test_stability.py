@@ -116,7 +116,8 @@ def _assert_non_convergence_reported(model, summary, watch, caught):
     ("dt", 0.0), ("dt", -1e-4), ("dt", np.inf), ("dt", np.nan),
     ("theta", 0.49), ("theta", 1.01), ("theta", np.nan),
     ("tol", 0.0), ("tol", -1e-6), ("tol", np.nan), ("tol", np.inf),
-    ("max_iter", 0), ("relax", 0.0), ("relax", 2.0), ("relax", np.nan),
+    ("max_iter", 0), ("max_iter", 10**9 + 1), ("max_iter", 2**63), ("max_iter", 2**64 + 1),
+    ("max_iter", 1e20), ("relax", 0.0), ("relax", 2.0), ("relax", np.nan),
 ])
 def test_option_out_of_range_is_refused_naming_the_field(field, value):
     kw = dict(dt=1e-4, theta=0.5, tol=1e-6, max_iter=100)

@@ -44,6 +44,8 @@ def test_info_render_export(demo, tmp_path, capsys):
     ('test = "box_triaxial"\n[parameters]\naxial_strain = "a lot"\n', "parameters.axial_strain"),
     ('test = "triaxial"\n', "test"),
     ('test = "slope_deposit"\nscale = 0\n', "scale = 0: must be a number in (0, 1]"),
+    ('test = "slope_deposit"\n[parameters]\nmax_iter = 9223372036854775807\n',
+     "parameters.max_iter = 9223372036854775807: must be an integer in [1, 1000000000]"),
     ('test = "slope_deposit"\n[wire]\nlaw = "rope"\n',
      "wire.law = 'rope': must be one of 'elastic', 'rigid', 'none'"),
     ('test = "box_triaxial"\nsede = 1\n[parameters]\npresure = 1e4\ndt = -1\n',

@@ -260,8 +260,6 @@ class Viewer:
         live = self.mode == "server" and getattr(self.server, "protocol", None) is not None \
             and hasattr(helper, "set_image_quality")
         if not live:
-            if self.mode == "client":
-                glyphs.register()              # (trame-vtk may have put its own back)
             self.ctrl.view_update()
             return
         rw = self.scene.plotter.render_window

@@ -121,8 +121,9 @@ def _scalar_bar_serializer(parent, actor, actor_id, context, depth):
 
 def register() -> None:
     """Teach trame-vtk's serializer VTK's glyph mapper, and colour bars as VTK lays them
-    out.  Cheap, and called before each scene goes to the page: trame-vtk puts its own
-    serializers back when its protocol starts (its colour bar's among them)."""
+    out.  trame-vtk puts its own serializers back when its protocol starts (its colour
+    bar's among them): the viewer calls this once the server is ready, before the page's
+    first scene, and each glyph actor made calls it too."""
     from trame_vtk.modules.vtk.serializers.registry import (register_instance_serializer,
                                                             register_js_class)
 
@@ -166,7 +167,8 @@ def _glyph_actor(pl, pts, source, name: str, scalars, kw, *, by_components=False
         g.SetUseLookupTableScalarRange(old.GetUseLookupTableScalarRange())
         g.SetColorModeToMapScalars()
     actor.SetMapper(g)
-    _SWAPPED.append(old)            # kept, not freed: see ViewScene.retire
+    old.RemoveAllInputs()
+    _SWAPPED.append(old)            # kept, its data released: see ViewScene.retire
     prop = actor.GetProperty()
     prop.SetRepresentationToSurface()
     prop.SetInterpolationToPhong()
@@ -177,14 +179,6 @@ _SOURCES: dict = {}
 #: pyvista's mappers swapped out of glyph actors, kept alive (their data released) so that
 #: no object the page knows by its address gets a new one's (ViewScene.retire)
 _SWAPPED: list = []
-_RELEASED = [0]
-
-
-def release_swapped() -> None:
-    """Release the data of the swapped-out mappers not yet released (kept alive)."""
-    for m in _SWAPPED[_RELEASED[0]:]:
-        m.RemoveAllInputs()
-    _RELEASED[0] = len(_SWAPPED)
 
 
 def _source(kind: str):

@@ -105,7 +105,7 @@ class ViewScene:
         #: the cylinder of the toroidal map: "wall" (the scene's cylinder), "sample" (the
         #: vertical cylinder holding the spheres, each frame: a membrane test) or None
         self.cylinder = None
-        self._retired, self._retired_ids, self._on_show = [], set(), []   # (see retire)
+        self._retired, self._on_show = set(), []          # (see retire)
 
     # ---------------------------------------------------------------- drawing
     def retire(self) -> None:
@@ -120,9 +120,8 @@ class ViewScene:
             return
         pl = self.plotter
         for obj in [*pl.renderer.actors.values(), *pl.scalar_bars.values()]:
-            if id(obj) not in self._retired_ids:
-                self._retired_ids.add(id(obj))
-                self._retired.append(obj)
+            if obj not in self._retired:
+                self._retired.add(obj)
                 self._on_show.append(obj)
         shown = []
         for obj in self._on_show:               # released once out of the scene
@@ -131,7 +130,6 @@ class ViewScene:
             elif hasattr(obj, "GetMapper") and obj.GetMapper() is not None:
                 obj.GetMapper().RemoveAllInputs()
         self._on_show = shown
-        glyphs.release_swapped()
 
     def _clear(self, *names):
         for n in names:

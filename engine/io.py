@@ -56,6 +56,220 @@ class _BadArgument(ValueError):
     """A bad argument of a reading function (not a problem of the file)."""
 
 
+class WriteFailed(OSError):
+    """A file could not be written: a full disk (``errno.ENOSPC``), a quota, an I/O error.
+
+    Raised by :class:`History` (which then stops writing: the file keeps, marked complete,
+    every record and frame of its last successful flush) and by :func:`save` (the older
+    checkpoint is kept).  ``str()`` is one line naming the file and the cause."""
+
+    def __init__(self, path, errno_: int | None, what: str):
+        super().__init__(errno_, what, os.fspath(path))
+
+    def __str__(self) -> str:
+        return f"{self.filename}: {self.strerror}"
+
+
+def _errno_of(e: BaseException) -> int | None:
+    """The errno of an OS or HDF5 write error (h5py puts it in the message text)."""
+    if isinstance(e, OSError) and e.errno:
+        return e.errno
+    import re
+
+    m = re.search(r"errno = (\d+)", str(e))
+    return int(m.group(1)) if m else None
+
+
+def _write_cause(e: BaseException) -> str:
+    """One line saying why a write failed (HDF5's messages span several lines)."""
+    import errno as _errno
+
+    code = _errno_of(e)
+    if code:
+        return f"{os.strerror(code)} ({_errno.errorcode.get(code, code)})"
+    return " ".join(str(e).split())[:200]
+
+
+def free_bytes(path) -> int:
+    """Bytes a non-root user may still write on the file system of ``path`` (a file or a
+    folder; the nearest existing parent folder is looked at)."""
+    import shutil
+
+    d = os.path.abspath(os.fspath(path))
+    while not os.path.isdir(d):
+        d = os.path.dirname(d)
+    return shutil.disk_usage(d).free
+
+
+#: Free space [bytes] a history leaves on its disk beyond its next write's own size (HDF5
+#: metadata and chunk allocation); a write that would go below it stops the run cleanly.
+SPACE_MARGIN = 1 << 18
+
+
+class _Headroom:
+    """Disk space held for a history's next write, in a file beside it (``.NAME.reserve``).
+
+    HDF5 cannot recover from a write that fails for want of space: the file's metadata
+    stay unwritten, and the process may end in a segmentation fault.  So no write is
+    attempted without room for it: :meth:`take` checks that the free space plus the space
+    held covers the write, then frees what is held just before the write; :meth:`hold`
+    takes it back afterwards (``posix_fallocate``).  Another program filling the disk in
+    the meantime fills the space outside the reserve; the next :meth:`take` then stops the
+    run cleanly."""
+
+    def __init__(self, path: str):
+        d, name = os.path.split(os.path.abspath(path))
+        self.path = os.path.join(d, f".{name}.reserve")
+        self.size = 0
+        self.fd = None
+        try:
+            self.fd = os.open(self.path, os.O_RDWR | os.O_CREAT | os.O_TRUNC, 0o644)
+        except OSError:
+            self.fd = None
+
+    def hold(self, nbytes: int) -> None:
+        """Hold ``nbytes`` (or as much as is there: a full disk is seen at :meth:`take`)."""
+        if self.fd is None or nbytes <= self.size:
+            return
+        try:
+            os.posix_fallocate(self.fd, 0, int(nbytes))
+            self.size = int(nbytes)
+        except OSError:
+            pass
+
+    def take(self, nbytes: int) -> int:
+        """Free what is held for a write of ``nbytes``; returns the free space then, or
+        raises nothing: the caller compares."""
+        free = free_bytes(self.path) + (self.size if self.fd is not None else 0)
+        if free >= nbytes and self.fd is not None and self.size:
+            os.ftruncate(self.fd, 0)
+            self.size = 0
+        return free
+
+    def __del__(self):
+        self.close()
+
+    def close(self) -> None:
+        if getattr(self, "fd", None) is not None:
+            os.close(self.fd)
+            self.fd = None
+            try:
+                os.remove(self.path)
+            except FileNotFoundError:
+                pass
+
+
+class RunLocked(OSError):
+    """Another process is writing this history (its lock, ``.NAME.lock``, is held)."""
+
+    def __str__(self) -> str:
+        return f"{self.filename}: {self.strerror}"
+
+
+class _Lock:
+    """An exclusive lock of a history for one writer (``flock`` on ``.NAME.lock`` beside it).
+
+    The kernel drops the lock when its holder ends, however it ends: a killed run never
+    blocks the next one (its lock file stays, unlocked).  The holder's pid, host and start
+    time are written in the file, for the message the next writer gets."""
+
+    def __init__(self, path: str):
+        import fcntl
+        import socket
+        import time
+
+        d, name = os.path.split(os.path.abspath(path))
+        self.path = os.path.join(d, f".{name}.lock")
+        os.makedirs(d, exist_ok=True)     # the run writes there
+        while True:
+            fd = os.open(self.path, os.O_RDWR | os.O_CREAT, 0o644)
+            try:
+                fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+            except BlockingIOError:
+                try:
+                    who = os.read(fd, 200).decode(errors="replace").strip()
+                finally:
+                    os.close(fd)
+                import errno
+
+                raise RunLocked(errno.EBUSY, f"another run is writing this history "
+                                f"({who or 'a process'}); wait for it to end, stop it, or "
+                                f"write elsewhere", path) from None
+            try:   # a holder that ended and removed the file between our open and flock
+                same = os.fstat(fd).st_ino == os.stat(self.path).st_ino
+            except FileNotFoundError:
+                same = False
+            if same:
+                break
+            os.close(fd)
+        #: the file held a holder's note: a writer of this history was killed (its file may
+        #: be torn; it is the killed run's and may be replaced)
+        self.stale = bool(os.read(fd, 200).strip())
+        os.lseek(fd, 0, os.SEEK_SET)
+        os.ftruncate(fd, 0)
+        os.write(fd, f"pid {os.getpid()} on {socket.gethostname()}, since "
+                     f"{time.strftime('%Y-%m-%d %H:%M:%S')}".encode())
+        self.fd = fd
+
+    def __del__(self):
+        self.release()
+
+    def release(self) -> None:
+        if getattr(self, "fd", None) is not None:
+            try:
+                os.remove(self.path)      # while locked: the next writer re-checks the inode
+            except FileNotFoundError:
+                pass
+            os.close(self.fd)
+            self.fd = None
+
+
+#: The history locks this process holds: absolute path -> [_Lock, holders].
+_HELD: dict = {}
+
+
+class HistoryLock:
+    """This process's hold on the lock of a history (:func:`lock_history`); several holders
+    in one process share one lock (a test holds it from its start, before it looks at its
+    checkpoint, and its :class:`History` again), released with the last of them."""
+
+    def __init__(self, key: str):
+        self.key = key
+
+    @property
+    def stale(self) -> bool:
+        """The lock was left by a writer that was killed (its history may be torn)."""
+        entry = _HELD.get(self.key)
+        return bool(entry and entry[0].stale)
+
+    def release(self) -> None:
+        key, self.key = self.key, None
+        entry = _HELD.get(key) if key is not None else None
+        if entry is not None:
+            entry[1] -= 1
+            if entry[1] == 0:
+                del _HELD[key]
+                entry[0].release()
+
+    def __del__(self):
+        try:
+            self.release()
+        except Exception:      # interpreter shutdown
+            pass
+
+
+def lock_history(path) -> HistoryLock:
+    """Take the writer's lock of the history at ``path`` (``.NAME.lock`` beside it) for
+    this process; :class:`RunLocked` (an OSError naming the holder) when another process
+    holds it.  A killed holder's lock is free at once (the kernel drops it)."""
+    key = os.path.abspath(os.fspath(path))
+    entry = _HELD.get(key)
+    if entry is None:
+        entry = _HELD[key] = [_Lock(key), 0]
+    entry[1] += 1
+    return HistoryLock(key)
+
+
 # -- units ---------------------------------------------------------------------------------
 #: Unit of every Model array (SI, ASCII).
 MODEL_UNITS = {
@@ -332,10 +546,15 @@ def _check_state(model: Model, s: State) -> None:
 
 # -- opening -----------------------------------------------------------------------------------
 def _open_read(path) -> h5py.File:
-    """Open an existing file for reading (SWMR read if a writer has it open or crashed)."""
+    """Open an existing file for reading (SWMR read if a writer has it open or crashed).
+
+    FileNotFoundError, IsADirectoryError, or :class:`FormatError` saying on one line why
+    the file cannot be read: not HDF5 at all, locked by a program writing it, truncated."""
     path = os.fspath(path)
     if not os.path.exists(path):
         raise FileNotFoundError(f"no such file: {path!r}")
+    if os.path.isdir(path):
+        raise IsADirectoryError(21, "is a folder, not a file", path)
     try:
         return h5py.File(path, "r")
     except OSError as e:
@@ -347,7 +566,21 @@ def _open_read(path) -> h5py.File:
             return h5py.File(path, "r", swmr=True)
         except OSError:
             pass
-    raise FormatError(f"{path}: not a readable HDF5 file (corrupt or truncated?): {first}")
+    text = str(first)
+    if "unable to lock file" in text or "errno = 11" in text:
+        raise FormatError(f"{path}: another program holds HDF5's lock on it (it is writing the "
+                          f"file); read it when that program has closed it, or with "
+                          f"HDF5_USE_FILE_LOCKING=FALSE")
+    try:
+        with open(path, "rb") as fh:
+            head = fh.read(8)
+    except OSError as e:
+        raise FormatError(f"{path}: cannot be read ({e.strerror})") from None
+    if not h5py.is_hdf5(path):
+        what = "an empty file" if not head else f"its first bytes are {head!r}"
+        raise FormatError(f"{path}: not a readable HDF5 file ({what}, not HDF5's signature)")
+    raise FormatError(f"{path}: not a readable HDF5 file (truncated or corrupt: "
+                      f"{_write_cause(first)})")
 
 
 def _check_root(f, path, content: str | None = None) -> str:
@@ -395,13 +628,35 @@ def _reading(path, fn):
 
 
 # -- checkpoint API ----------------------------------------------------------------------------
-def save(path, model: Model, state: State, extra: dict | None = None) -> None:
+def _check_replaceable(path: str, content: str) -> None:
+    """Refuse to replace a file at ``path`` unless it is an nscd-workbench file of
+    ``content`` (FileExistsError, IsADirectoryError: one line naming it)."""
+    if not os.path.lexists(path):
+        return
+    if os.path.isdir(path):
+        raise IsADirectoryError(21, "is a folder, not a file", path)
+    try:
+        kind = _reading(path, lambda f: _check_root(f, path))
+    except (FormatError, OSError) as e:
+        kind = None
+        why = str(e).removeprefix(f"{path}: ")
+    else:
+        why = f"it is a {kind} file"
+    if kind != content:
+        raise FileExistsError(17, f"exists and is not an nscd-workbench {content} ({why}); it "
+                              f"is not replaced: remove it, or pass overwrite=True (nscd: "
+                              f"--force)", path)
+
+
+def save(path, model: Model, state: State, extra: dict | None = None, *,
+         overwrite: bool = False) -> None:
     """Write a checkpoint of ``(model, state)`` to ``path`` (HDF5; replaced atomically).
 
     Everything the next step reads is stored, so ``load`` then ``run`` continues bit for
     bit like the uninterrupted run.  ``extra``: ``{name: array of numbers, or str}``
     stored beside them (what a driver needs to go on, e.g. an experiment's recorded
-    curves), read back by :func:`load_extra`.
+    curves), read back by :func:`load_extra`.  A file at ``path`` that is not a
+    checkpoint is refused (FileExistsError) unless ``overwrite``.
 
     Raises
     ------
@@ -417,6 +672,8 @@ def save(path, model: Model, state: State, extra: dict | None = None) -> None:
         raise ValueError(f"state.position has shape {state.position.shape}, but the model has "
                          f"{model.n_bodies} bodies")
     path = os.fspath(path)
+    if not overwrite:
+        _check_replaceable(path, "checkpoint")
     tmp = f"{path}.tmp{os.getpid()}"
     try:
         with h5py.File(tmp, "w", libver=LIBVER) as f:
@@ -434,6 +691,11 @@ def save(path, model: Model, state: State, extra: dict | None = None) -> None:
                         raise ValueError(f"extra[{name!r}]: numbers or a str, got {v.dtype}")
                     eg.create_dataset(name, data=v)
         os.replace(tmp, path)  # a crash during save never spoils an older checkpoint
+    except (OSError, RuntimeError) as e:
+        if isinstance(e, (FileNotFoundError, IsADirectoryError, PermissionError)):
+            raise
+        raise WriteFailed(path, _errno_of(e), f"the checkpoint could not be written "
+                          f"({_write_cause(e)}); any older checkpoint there is kept") from None
     finally:
         if os.path.exists(tmp):
             os.remove(tmp)
@@ -568,7 +830,9 @@ class History:
     Parameters
     ----------
     path : str or path
-        File to create (replaced if it exists).
+        File to create (an older history there is replaced; another file is refused, see
+        ``overwrite``).  The writer holds the history's lock (:func:`lock_history`) until
+        :meth:`close`: a second writer, in another process, gets :class:`RunLocked`.
     trigger : int or callable ``step -> bool``
         When a scalar record is taken (default: every step).
     frames : int >= 0
@@ -579,6 +843,9 @@ class History:
     extra : dict, optional
         ``{name: fn}`` or ``{name: (fn, unit)}``: ``fn(model, state)`` returns a scalar or
         an array of fixed shape (e.g. a stress tensor) recorded with the scalars.
+    overwrite : bool
+        Replace a file at ``path`` that is not an nscd-workbench history (by default such
+        a file is refused, :class:`FileExistsError`; a history is replaced).
     resume_step : int, optional
         Go on writing the existing history at ``path`` from this step (a run restarted
         from a checkpoint of it, :func:`save`): its records and frames after the step are
@@ -602,7 +869,8 @@ class History:
 
     def __init__(self, path, *, trigger: Callable[[int], bool] | int = 1, frames: int = 100,
                  flush: int | None = None, extra: dict | None = None,
-                 resume_step: int | None = None, meta: dict | None = None):
+                 resume_step: int | None = None, meta: dict | None = None,
+                 overwrite: bool = False):
         from .step import every
 
         self.path = os.fspath(path)
@@ -632,6 +900,10 @@ class History:
         self._recorded_step = self._framed_step = None
         self.n_records = 0
         self.n_frames = 0
+        self._mark = (0, 0, None)     # (records, frames, step) of the last complete flush
+        self._room = None
+        self._hold = 0
+        self._row_bytes = 0
         if meta is not None:
             if not isinstance(meta, dict):
                 raise ValueError(f"meta must be a dict (what the run is), got "
@@ -640,10 +912,21 @@ class History:
                 meta = json.dumps(meta, default=str, allow_nan=True)
             except (TypeError, ValueError) as e:
                 raise ValueError(f"meta must be a JSON-serialisable dict: {e}") from None
+        self._file = None
+        self._lock = lock_history(self.path)   # before the file is touched: one writer
+        try:
+            if resume_step is not None:
+                self._reopen(int(resume_step))
+            else:
+                if not (overwrite or self._lock.stale):   # a killed run's may be torn
+                    _check_replaceable(self.path, "history")
+                self._file = h5py.File(self.path, "w", libver=LIBVER)
+        except BaseException:
+            self._lock.release()
+            raise
+        self._room = _Headroom(self.path)
         if resume_step is not None:
-            self._reopen(int(resume_step))
             return
-        self._file = h5py.File(self.path, "w", libver=LIBVER)
         _root_attrs(self._file, "history")
         if meta is not None:
             self._file.attrs["run_meta"] = meta
@@ -661,18 +944,22 @@ class History:
         if self._file is None:
             raise ValueError(f"History({self.path!r}) is closed")
         if not self._ready:
-            self._setup(model, state)
+            self._guarded(state, self._setup, model, state)
         self._step_seen = state.step
 
     def write(self, model, state) -> None:
-        """Record the state after a complete step (called by :func:`engine.run`)."""
+        """Record the state after a complete step (called by :func:`engine.run`).
+
+        Raises :class:`WriteFailed` when the disk cannot take the next flush (checked
+        before writing: free space below its size plus :data:`SPACE_MARGIN`) or a write
+        fails; the history then stops, complete up to its last flush."""
         self._begin(model, state)
         if self._last_flush is None:
             self._last_flush = state.step
         if self._trigger(state.step):
             self._record(model, state)
         if self.frames and state.step % self.frames == 0:
-            self._frame(model, state)
+            self._guarded(state, self._frame, model, state)
             self.flush()
         elif state.step - self._last_flush >= self.flush_every:
             self.flush()
@@ -685,14 +972,20 @@ class History:
         if self._recorded_step != state.step:
             self._record(model, state)
         if self.frames and self._framed_step != state.step:
-            self._frame(model, state)
+            self._guarded(state, self._frame, model, state)
         self.flush()
 
     def flush(self) -> None:
-        """Append the buffered records and flush the file to disk."""
+        """Append the buffered records, flush the file to disk, then mark what it holds as
+        complete (the ``committed`` dataset a reader trusts: a record or frame written after
+        the last mark, by a run killed or stopped by a full disk, is left out)."""
         if self._file is None:
             return
+        self._guarded(None, self._flush)
+
+    def _flush(self) -> None:
         if self._ready and self._buf["time"]:
+            self._need(len(self._buf["time"]) * self._row_bytes)
             g = self._file["records"]
             n0 = self.n_records
             k = len(self._buf["time"])
@@ -705,13 +998,64 @@ class History:
         if self._ready:
             self._last_flush = self._step_seen
         self._file.flush()
+        if self._ready and (self.n_records, self.n_frames) != self._mark[:2]:
+            d = self._file["committed"]
+            r = d.shape[0]
+            d.resize(r + 1, axis=0)
+            d[r] = (self.n_records, self.n_frames)
+            self._file.flush()
+            self._mark = (self.n_records, self.n_frames, self._step_seen)
+        self._room.hold(self._hold)       # the space of the next write, held
+
+    def _need(self, nbytes: int) -> None:
+        """Stop (:class:`WriteFailed`, ENOSPC) before a write of about ``nbytes`` that the
+        disk cannot take with :data:`SPACE_MARGIN` to spare (twice the size: HDF5 allocates
+        whole chunks); else free the space held for it (:class:`_Headroom`)."""
+        import errno
+
+        need = 2 * int(nbytes) + SPACE_MARGIN
+        self._hold = max(self._hold, need)
+        free = self._room.take(need)
+        if free < need:
+            raise WriteFailed(self.path, errno.ENOSPC,
+                              f"the disk is full: {free / 1e6:.3g} MB free, less than the "
+                              f"history's next write needs ({need / 1e6:.3g} MB with its "
+                              f"margin)")
+
+    def _guarded(self, state, fn, *args):
+        """``fn(*args)``; a failed write (or too little space) closes the file, which keeps
+        what its last flush marked complete, and raises :class:`WriteFailed` saying so."""
+        try:
+            return fn(*args)
+        except (OSError, RuntimeError) as e:
+            f, self._file = self._file, None
+            self._buf = {k: [] for k in self._buf}
+            self._room.close()
+            try:
+                f.close()
+            except Exception:    # HDF5 could not write its metadata: nothing more to save
+                pass
+            self._lock.release()
+            n, m, last = self._mark
+            kept = (f"it keeps {n} records and {m} frames, up to step {last} (its last "
+                    f"complete flush)" if last is not None else "it holds no complete record")
+            cause = e.strerror if isinstance(e, WriteFailed) else (
+                f"a write failed: {_write_cause(e)}")
+            step = "" if state is None else f" at step {state.step}"
+            raise WriteFailed(self.path, _errno_of(e), f"the history stopped{step}: {cause}; "
+                              f"{kept}") from None
 
     def close(self) -> None:
         """Flush and close the file (idempotent)."""
         if self._file is not None:
-            self.flush()
-            self._file.close()
-            self._file = None
+            try:
+                self.flush()
+            finally:
+                if self._file is not None:
+                    self._file.close()
+                    self._file = None
+                self._room.close()
+                self._lock.release()
 
     def __enter__(self) -> "History":
         return self
@@ -752,7 +1096,7 @@ class History:
                 cols = [*HISTORY_SCALARS, "wall_force", *names]
                 # keep up to the last record the trigger takes at or before the step (the
                 # record and frame a stopped run wrote of its end state off that grid go)
-                n = min(g[c].shape[0] for c in cols)
+                n = _record_count(g, cols)
                 steps = g["step"][:n]
                 keep = np.flatnonzero((steps <= step)
                                       & np.array([bool(self._trigger(int(k))) for k in steps],
@@ -774,6 +1118,12 @@ class History:
                 self._extra_shape = {c: g[c].shape[1:] for c in names}
                 last = (int(g["step"][n - 1]) if n else None,
                         int(fg["step"][m - 1]) if m else None)
+                if "committed" not in dst:
+                    _appendable(dst, "committed", (2,), np.int64, "-", 64)
+                dst["committed"].resize(1, axis=0)
+                dst["committed"][0] = (n, m)
+                self._row_bytes = (sum(g[c].dtype.itemsize * int(np.prod(g[c].shape[1:]))
+                                       for c in cols))
             src.close()
             os.replace(tmp, self.path)
         finally:
@@ -789,6 +1139,7 @@ class History:
         self._buf = {c: [] for c in cols}
         self.n_records, self.n_frames = n, m
         self._recorded_step, self._framed_step = last
+        self._mark = (n, m, last[0])
         self._ready = True
 
     def _setup(self, model, state) -> None:
@@ -800,6 +1151,7 @@ class History:
                 raise ValueError(f"extra[{name!r}] must return numbers, got {v.dtype}")
             first[name] = v
         self._extra_shape = {name: v.shape for name, v in first.items()}
+        self._need(sum(v.nbytes for v in vars(model).values() if isinstance(v, np.ndarray)))
         _write_model(f.create_group("model"), model, strict=False)
         g = f.create_group("records")
         rows = max(1, min(1024, self.flush_every))
@@ -813,7 +1165,11 @@ class History:
         for name, (fn, unit) in self.extra.items():
             _appendable(g, name, first[name].shape, first[name].dtype, unit, rows)
             self._buf[name] = []
+        self._row_bytes = (sum(np.dtype(t).itemsize for t, _ in HISTORY_SCALARS.values())
+                           + 24 * nw + sum(v.nbytes for v in first.values()))
         g.attrs["extra"] = json.dumps(list(self.extra))
+        # (records, frames) after each complete flush; readers trust no more than the last
+        _appendable(f, "committed", (2,), np.int64, "-", 64)
         fg = f.create_group("frames")
         fg.attrs["every"] = self.frames
         _appendable(fg, "step", (), np.int64, "-", 64)
@@ -849,10 +1205,11 @@ class History:
             self._buf[name].append(v)
 
     def _frame(self, model, state) -> None:
-        self._framed_step = state.step
-        fg = self._file["frames"]
         c = state.contacts
         k = len(c)
+        self._need(72 * model.n_bodies + 9 * model.n_links + 65 * max(k, 4096))
+        self._framed_step = state.step
+        fg = self._file["frames"]
         force = c.force if k and state.last_dt else np.zeros((k, 3))
         cg = fg["contacts"]
         n0 = cg["i"].shape[0]
@@ -925,11 +1282,35 @@ class HistoryData:
         return {name: v[a:b] for name, v in self.contact_arrays.items()}
 
 
+def _committed(f) -> tuple[int, int] | None:
+    """(records, frames) the history's last complete flush marked (``committed``); None for
+    a file written before the mark existed (then every row of full length is trusted)."""
+    d = f.get("committed")
+    if d is None:
+        return None
+    rows = d[()]
+    if rows.shape[0] == 0:
+        return 0, 0
+    # a mark whose own write was lost reads as zeros (HDF5's fill value): the marks only grow
+    return int(rows[:, 0].max()), int(rows[:, 1].max())
+
+
+def _record_count(g, names) -> int:
+    """Records fully written: every column has the row, and a flush marked it complete."""
+    n = min(g[name].shape[0] for name in names)
+    mark = _committed(g.file)
+    return n if mark is None else min(n, mark[0])
+
+
 def _frame_count(fg) -> int:
-    """Frames fully written: every frame dataset has the row and its contacts exist."""
+    """Frames fully written: every frame dataset has the row, its contacts exist, and a flush
+    marked it complete (``committed``: a frame whose data a full disk lost reads as zeros)."""
     names = ["step", "time", "contact_start", "contact_count", *_FRAME_BODY, "link_tension",
              "link_broken"]
     n = min(fg[name].shape[0] for name in names)
+    mark = _committed(fg.file)
+    if mark is not None:
+        n = min(n, mark[1])
     nc = min(fg["contacts"][name].shape[0] for name in _FRAME_CONTACT)
     start, count = fg["contact_start"][:n], fg["contact_count"][:n]
     while n and start[n - 1] + count[n - 1] > nc:
@@ -952,7 +1333,7 @@ def read_history(path, frames: bool = True) -> HistoryData:
         g = f["records"]
         extra = json.loads(g.attrs["extra"])
         names = [*HISTORY_SCALARS, "wall_force", *extra]
-        n = min(g[name].shape[0] for name in names)
+        n = _record_count(g, names)
         units = {name: str(g[name].attrs["unit"]) for name in names}
         rec = {name: g[name][:n] for name in names}
         data = HistoryData(**{name: rec[name] for name in HISTORY_SCALARS},
@@ -1098,7 +1479,9 @@ def _state_from_frame(f, model: Model, frame: int, contacts: bool = True) -> Sta
     return state
 
 
-__all__ = ["save", "load", "load_model", "file_content", "History", "HistoryData",
+__all__ = ["save", "load", "load_model", "file_content", "History", "HistoryData", "WriteFailed",
+           "RunLocked", "lock_history", "HistoryLock",
+           "free_bytes",
            "read_history", "history_run_id", "history_meta", "read_frame", "frame_index",
            "frame_arrays", "Checkpoint", "FormatError", "UnsavedCallable",
            "kinetic_energy", "wall_forces", "FORMAT_VERSION", "FORMAT_NAME"]

@@ -421,6 +421,16 @@ def cmd_run(a) -> int:
         print(f"nscd run: {e}", file=sys.stderr)
         return 2
     out = Path(a.out or Path("out") / Path(a.config).stem)
+    target = out / "run.h5"
+    if a.force and target.is_file():
+        from engine.io import FormatError, file_content
+
+        try:
+            kind = file_content(target)[0]
+        except (FormatError, OSError):
+            kind = None
+        if kind != "history":        # a history is the run's own: resumed or replaced
+            target.unlink()
     beside = None
     if a.view:
         from .view.live import ViewerBeside
@@ -570,6 +580,9 @@ def parser() -> argparse.ArgumentParser:
                    help="start the viewer (nscd view RUN.h5 --follow, its own process) as soon "
                         "as the run has a frame, print its URL, and keep it after the run "
                         "until Ctrl-C")
+    r.add_argument("--force", action="store_true",
+                   help="replace OUT/run.h5 even when it is not an nscd-workbench history "
+                        "(by default such a file is kept and the run refused)")
     r.set_defaults(fn=cmd_run)
     g = sub.add_parser("render", help="render one frame of a run to PNG (off-screen)")
     g.add_argument("run", help="history (.h5) or checkpoint")
@@ -661,6 +674,7 @@ def main(argv=None) -> int:
     parameter); 130 stopped by Ctrl-C / SIGTERM (``nscd run`` still writes the figures of
     the steps run; a sweep keeps its finished cases); one line on stderr, no traceback."""
     from engine.experiments import ConfinementError, ConvergenceError
+    from engine.io import WriteFailed
     from engine.step import SimulationError
 
     a = parser().parse_args(argv)
@@ -683,6 +697,9 @@ def main(argv=None) -> int:
         return a.fn(a)
     except (ConvergenceError, ConfinementError, SimulationError) as e:
         print(f"nscd {a.command}: the run failed: {e}", file=sys.stderr)
+        return 1
+    except WriteFailed as e:  # a full disk: what was written is kept, marked complete
+        print(f"nscd {a.command}: stopped: {e}", file=sys.stderr)
         return 1
     except ValueError as e:
         print(f"nscd {a.command}: {e}", file=sys.stderr)

@@ -364,7 +364,12 @@ class RestCheckpoint:
         if (isinstance(every, bool) or not isinstance(every, (int, np.integer)) or every < 0):
             raise ValueError(f"checkpoint_every must be an integer >= 0 [steps; 0: only when "
                              f"interrupted], got {every!r}")
+        from ..io import lock_history
+
         self.path = os.path.splitext(os.fspath(history))[0] + self.SUFFIX
+        # the run's lock, before its checkpoint is read or removed: a second run on the
+        # same history is refused (engine.io.RunLocked) before it touches anything
+        self.lock = lock_history(history)
         self.every = -(-int(every) // record_every) * record_every
         self.identity = identity
         self.recorder = None
@@ -408,17 +413,23 @@ class RestCheckpoint:
             elif not os.path.exists(history):
                 why = f"its history {history} is gone"
             else:
-                h = read_history(history, frames=False)
                 ckpt_model, state = load(self.path)
-                diff = _model_difference(ckpt_model, model)
-                if diff is not None:
-                    why = f"{diff} differs from this run's (another engine version?)"
-                elif (history_run_id(history) or "") != info.get("run_id", ""):
-                    why = f"its history {history} is another run's"
-                elif h.n_records and h.step[-1] < int(info["written_step"]):
-                    why = f"its history {history} stops before it"
         except (ValueError, OSError, KeyError) as e:       # FormatError is a ValueError
             why = f"it cannot be read ({e})"
+        if why is None:
+            try:
+                h = read_history(history, frames=False)
+                run_id = history_run_id(history) or ""
+            except (ValueError, OSError) as e:   # the history is bad, not the checkpoint
+                raise ValueError(f"cannot resume: {e}; the checkpoint {self.path} is kept "
+                                 f"(move or remove the history to start afresh)") from None
+            diff = _model_difference(ckpt_model, model)
+            if diff is not None:
+                why = f"{diff} differs from this run's (another engine version?)"
+            elif run_id != info.get("run_id", ""):
+                why = f"its history {history} is another run's"
+            elif h.n_records and h.step[-1] < int(info["written_step"]):
+                why = f"its history {history} stops before it"
         if why is not None:
             warnings.warn(f"not resuming from {self.path}: {why}; the run starts afresh",
                           RuntimeWarning, stacklevel=3)

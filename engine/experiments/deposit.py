@@ -165,6 +165,7 @@ def gravity_deposit(scale: float = 0.05, *, sample: str = "slope", wire: bool = 
         hist.close()
     if not stages.interrupted:
         ckpt.remove()
+    ckpt.lock.release()
     fz = float(wall_forces(model, state)[:, 2].sum())       # on the walls: < 0 (downward)
     weight = float(model.body_mass[ids].sum() * G)
     chains1 = wire_chains(model, state) if wire else []

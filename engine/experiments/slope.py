@@ -173,6 +173,7 @@ def slope_deposit(scale: float = 0.02, *, wire: bool = True, wire_density: float
         hist.close()
     if not stages.interrupted:
         ckpt.remove()
+    ckpt.lock.release()
     profile_error = None
     try:
         prof = slope_profile(model, state, floor=rubber, center=(0.0, 0.0),

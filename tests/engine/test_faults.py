@@ -1,0 +1,328 @@
+"""Faults a run must survive without losing or mixing data (issue 33): a full disk, a second
+writer on the same history, a file that is not ours where a run writes, a corrupt history
+beside a good checkpoint, files that cannot be read for a reason the message must say.
+
+The full-disk tests mount a small tmpfs (root only; skipped with the reason otherwise); the
+lock tests use real processes."""
+import os
+import signal
+import subprocess
+import sys
+import textwrap
+import time
+import warnings
+from pathlib import Path
+
+import h5py
+import numpy as np
+import pytest
+
+from engine import io, run
+from engine.step import CallbackWriter, NonConvergenceWarning
+from tests.engine.test_io import scene
+
+ROOT = Path(__file__).resolve().parents[2]
+ENV = {**os.environ, "PYTHONPATH": str(ROOT)}
+
+
+@pytest.fixture
+def small_disk(tmp_path):
+    """``small_disk(kib)``: a folder on a tmpfs of that size (unmounted after the test)."""
+    mounts = []
+
+    def make(kib: int) -> Path:
+        if os.geteuid() != 0:
+            pytest.skip("a small tmpfs can only be mounted by root")
+        d = tmp_path / f"disk{len(mounts)}"
+        d.mkdir()
+        r = subprocess.run(["mount", "-t", "tmpfs", "-o", f"size={kib}k", "tmpfs", str(d)],
+                           capture_output=True, text=True)
+        if r.returncode:
+            pytest.skip(f"cannot mount a tmpfs here: {r.stderr.strip()}")
+        mounts.append(d)
+        return d
+
+    yield make
+    for d in mounts:
+        subprocess.run(["umount", "-l", str(d)], capture_output=True)
+
+
+def _run_quiet(model, state, n, writers):
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", NonConvergenceWarning)
+        return run(model, state, n, writers=writers, progress=False)
+
+
+def _history_run(path, steps=300, writers=(), frames=5):
+    model, state = scene()
+    h = io.History(path, frames=frames, flush=frames)
+    try:
+        _run_quiet(model, state, steps, [h, *writers])
+    finally:
+        h.close()
+
+
+# -- 1. a full disk -----------------------------------------------------------------------------
+def test_a_full_disk_stops_the_history_cleanly_and_keeps_what_was_written(tmp_path,
+                                                                         small_disk):
+    """The run fills a 1 MiB disk: it stops with one WriteFailed line (ENOSPC) before HDF5
+    ever meets the full disk, and the file keeps, complete and bit for bit, the records and
+    frames of the same run on a large disk up to its last flush (no frame of zeros)."""
+    import errno
+
+    ref = tmp_path / "ref.h5"
+    _history_run(ref)
+    full = small_disk(1024) / "run.h5"
+    with pytest.raises(io.WriteFailed) as e:
+        _history_run(full)
+    msg = str(e.value)
+    assert e.value.errno == errno.ENOSPC and "\n" not in msg
+    assert msg.startswith(f"{full}: the history stopped at step ") and "the disk is full" in msg
+    a, b = io.read_history(ref), io.read_history(full)
+    assert 0 < b.n_frames < a.n_frames and 0 < b.n_records < a.n_records
+    assert f"it keeps {b.n_records} records and {b.n_frames} frames" in msg
+    for name in ("step", "time", "kinetic_energy", "residual", "wall_force"):
+        np.testing.assert_array_equal(getattr(b, name), getattr(a, name)[:b.n_records])
+    for name in ("frame_step", "position", "velocity", "link_tension"):
+        np.testing.assert_array_equal(getattr(b, name), getattr(a, name)[:b.n_frames])
+    assert np.all(np.abs(b.position).sum(axis=(1, 2)) > 0)
+    assert not list(full.parent.glob(".run.h5.*"))     # no reserve or lock file left
+
+
+CHILD_FILLER = textwrap.dedent("""
+    import sys, warnings
+    from engine import io, run
+    from engine.step import CallbackWriter, NonConvergenceWarning
+    from tests.engine.test_io import scene
+
+    path, filler = sys.argv[1], sys.argv[2]
+
+    def fill(model, state):          # another program fills the disk at step 100
+        try:
+            with open(filler, "wb", buffering=0) as f:
+                while True:
+                    f.write(b"x" * 4096)
+        except OSError:
+            pass
+
+    model, state = scene()
+    h = io.History(path, frames=5, flush=5)
+    warnings.simplefilter("ignore", NonConvergenceWarning)
+    try:
+        run(model, state, 300, writers=[CallbackWriter(fill, lambda s: s == 100), h],
+            progress=False)
+    except io.WriteFailed as e:
+        print(e)
+    h.close()
+""")
+
+
+def test_a_disk_filled_by_another_program_stops_the_run_cleanly(tmp_path, small_disk):
+    """Another program takes the whole disk in the middle of the run: the next write of the
+    history stops it (one line, no segmentation fault: the process exits 0), and the file
+    holds the steps up to its last flush, readable."""
+    disk = small_disk(4096)
+    script = tmp_path / "child.py"
+    script.write_text(CHILD_FILLER)
+    r = subprocess.run([sys.executable, str(script), str(disk / "run.h5"), str(disk / "fill")],
+                       cwd=ROOT, env=ENV, capture_output=True, text=True, timeout=300)
+    assert r.returncode == 0, r.stderr[-2000:]
+    assert "the history stopped at step 10" in r.stdout and "the disk is full" in r.stdout
+    assert "Traceback" not in r.stderr
+    d = io.read_history(disk / "run.h5")
+    assert d.step[-1] == 100 and d.frame_step[-1] == 100
+    assert np.all(np.abs(d.position).sum(axis=(1, 2)) > 0)
+
+
+def test_nscd_run_on_a_full_disk_exits_1_with_one_line(small_disk):
+    """``nscd run`` of the paper's gravity deposit (scale 0.02) on a 256 KiB disk: exit code
+    1, one line on stderr naming the file and the full disk, no traceback."""
+    disk = small_disk(256)
+    cfg = disk.parent / "gd.toml"
+    cfg.write_text('test = "gravity_deposit"\nscale = 0.02\nseed = 0\n')
+    r = subprocess.run([sys.executable, "-m", "workbench.cli", "run", str(cfg), "--out",
+                        str(disk / "run")], cwd=ROOT, env=ENV, capture_output=True, text=True,
+                       timeout=600)
+    lines = [ln for ln in r.stderr.replace("\r", "\n").splitlines()
+             if ln.startswith("nscd") or "Error" in ln or "Traceback" in ln]
+    assert r.returncode == 1, r.stderr[-2000:]
+    assert lines == [lines[0]] and lines[0].startswith(f"nscd run: stopped: {disk}/run/run.h5:")
+    assert "the disk is full" in lines[0]
+
+
+def test_a_frame_written_after_the_last_flush_is_not_read(tmp_path):
+    """A frame and records whose rows exist but that no flush marked complete (the data a
+    full disk or a kill lost read as zeros) are left out by every reader."""
+    path = tmp_path / "run.h5"
+    _history_run(path, steps=50)
+    d0 = io.read_history(path)
+    with h5py.File(path, "a") as f:        # a torn frame and record: rows without the mark
+        fg = f["frames"]
+        for name in ("step", "time", "position", "velocity", "spin", "link_tension",
+                     "link_broken", "contact_start", "contact_count"):
+            fg[name].resize(fg[name].shape[0] + 1, axis=0)
+        for name in f["records"]:
+            if name != "wall_ids":
+                f["records"][name].resize(f["records"][name].shape[0] + 1, axis=0)
+    d = io.read_history(path)
+    assert (d.n_frames, d.n_records) == (d0.n_frames, d0.n_records)
+    assert io.frame_index(path)[0].size == d0.n_frames
+    np.testing.assert_array_equal(io.read_frame(path, -1).position, d0.position[-1])
+
+
+# -- 2. one writer per history ------------------------------------------------------------------
+CHILD_HOLDER = textwrap.dedent("""
+    import sys, time
+    from engine import io
+    h = io.History(sys.argv[1])
+    print("holding", flush=True)
+    time.sleep(600)
+""")
+
+
+def test_a_second_writer_is_refused_and_a_killed_ones_lock_does_not_block(tmp_path):
+    """A process writes run.h5: a History on the same file in another process is refused
+    (RunLocked, naming the holder's pid) and the file is left as it was; once the holder is
+    killed (SIGKILL: no cleanup), the next writer gets the lock at once."""
+    path = tmp_path / "run.h5"
+    script = tmp_path / "holder.py"
+    script.write_text(CHILD_HOLDER)
+    proc = subprocess.Popen([sys.executable, str(script), str(path)], cwd=ROOT, env=ENV,
+                            stdout=subprocess.PIPE, text=True)
+    try:
+        assert proc.stdout.readline().strip() == "holding"
+        before = path.stat()
+        with pytest.raises(io.RunLocked) as e:
+            io.History(path)
+        assert f"pid {proc.pid} on " in str(e.value) and "\n" not in str(e.value)
+        assert path.stat().st_mtime_ns == before.st_mtime_ns
+        assert path.stat().st_size == before.st_size
+    finally:
+        proc.kill()
+        proc.wait()
+    h = io.History(path)                  # the killed holder's lock is free
+    h.close()
+    assert not (tmp_path / ".run.h5.lock").exists()
+
+
+def test_a_second_nscd_run_on_the_same_out_is_refused_and_the_first_goes_on(tmp_path):
+    """Two ``nscd run`` on one --out: the second (another mu, which would start afresh and
+    remove the first's checkpoint) exits 2 naming the other run; the first ends normally
+    with its history whole."""
+    cfg = tmp_path / "a.toml"
+    cfg.write_text('test = "gravity_deposit"\nscale = 0.02\nseed = 0\n'
+                   '[parameters]\nsteps = 300\ncheckpoint_every = 100\nmax_nonconverged = 1.0\n')
+    other = tmp_path / "b.toml"
+    other.write_text(cfg.read_text().replace("[parameters]\n", "[parameters]\nmu = 0.3\n"))
+    out = tmp_path / "out"
+    cmd = [sys.executable, "-m", "workbench.cli", "run", "--out", str(out)]
+    first = subprocess.Popen([*cmd, str(cfg)], cwd=ROOT, env=ENV, stdout=subprocess.PIPE,
+                             stderr=subprocess.PIPE, text=True)
+    try:
+        t0 = time.monotonic()
+        while not (out / "run.h5").exists() and time.monotonic() - t0 < 120:
+            time.sleep(0.2)
+        second = subprocess.run([*cmd, str(other)], cwd=ROOT, env=ENV, capture_output=True,
+                                text=True, timeout=300)
+        _, err = first.communicate(timeout=600)
+    finally:
+        if first.poll() is None:
+            first.kill()
+            first.wait()
+    assert second.returncode == 2, second.stderr[-2000:]
+    assert "another run is writing this history" in second.stderr
+    assert f"pid {first.pid} " in second.stderr
+    assert first.returncode == 0, err[-2000:]
+    d = io.read_history(out / "run.h5")
+    assert d.step[-1] == 300 and np.array_equal(d.step, np.arange(0, 301, d.step[1]))
+    assert io.history_meta(out / "run.h5")["params"]["mu"] == 0.5     # the first run's
+
+
+# -- 6. nothing replaced that is not ours -------------------------------------------------------
+def test_save_and_history_replace_only_their_own_kind(tmp_path):
+    """``io.save`` and ``History`` refuse to replace a text file, a foreign HDF5 file or the
+    other kind of ours (FileExistsError, one line, the file untouched); they replace their
+    own kind, and anything with ``overwrite=True``."""
+    model, state = scene()
+    text = tmp_path / "notes.txt"
+    text.write_text("my notes")
+    foreign = tmp_path / "foreign.h5"
+    with h5py.File(foreign, "w") as f:
+        f["x"] = 1
+    hist = tmp_path / "hist.h5"
+    io.History(hist).close()
+    ckpt = tmp_path / "ckpt.h5"
+    io.save(ckpt, model, state)
+    for target, writer in ((text, "save"), (foreign, "save"), (hist, "save"),
+                           (text, "history"), (foreign, "history"), (ckpt, "history")):
+        before = target.read_bytes()
+        with pytest.raises(FileExistsError) as e:
+            io.save(target, model, state) if writer == "save" else io.History(target)
+        assert str(target) in str(e.value) and "overwrite=True" in str(e.value)
+        assert "\n" not in str(e.value)
+        assert target.read_bytes() == before
+    io.save(ckpt, model, state)                       # its own kind
+    io.History(hist).close()
+    io.save(text, model, state, overwrite=True)
+    assert io.file_content(text)[0] == "checkpoint"
+    io.History(foreign, overwrite=True).close()
+    assert io.file_content(foreign)[0] == "history"
+
+
+def test_nscd_run_keeps_a_foreign_run_h5_unless_forced(tmp_path):
+    from workbench.cli import main
+
+    cfg = tmp_path / "a.toml"
+    cfg.write_text('test = "gravity_deposit"\nscale = 0.02\nseed = 0\n'
+                   '[parameters]\nsteps = 20\nmax_nonconverged = 1.0\n')
+    out = tmp_path / "out"
+    out.mkdir()
+    (out / "run.h5").write_text("someone's data")
+    assert main(["run", str(cfg), "--out", str(out)]) == 2
+    assert (out / "run.h5").read_text() == "someone's data"
+    assert main(["run", str(cfg), "--out", str(out), "--force"]) == 0
+    assert io.read_history(out / "run.h5").step[-1] == 20
+
+
+def test_a_corrupt_history_does_not_remove_a_good_checkpoint(tmp_path, monkeypatch):
+    """A deposit stopped by Ctrl-C leaves its checkpoint; its history then gets corrupted:
+    the resume refuses (ValueError naming both files) and the checkpoint is kept."""
+    from engine.experiments import gravity_deposit
+    from tests.helpers import stop_runs_at
+
+    kw = dict(sample="box", progress=False, checkpoint_every=100)
+    hist = tmp_path / "b.h5"
+    with monkeypatch.context() as mp:
+        stop_runs_at(mp, 150, "sigint")
+        assert gravity_deposit(0.02, history=str(hist), **kw).convergence["interrupted"]
+    ck = tmp_path / "b.resume.h5"
+    good = ck.read_bytes()
+    with open(hist, "r+b") as f:
+        f.truncate(hist.stat().st_size // 3)
+    with pytest.raises(ValueError, match="cannot resume") as e:
+        gravity_deposit(0.02, history=str(hist), resume=True, **kw)
+    assert str(ck) in str(e.value) and "is kept" in str(e.value)
+    assert ck.read_bytes() == good
+
+
+# -- 8. messages that say what happened ---------------------------------------------------------
+def test_reading_a_folder_a_text_file_or_a_locked_file_says_so(tmp_path):
+    folder = tmp_path / "run.h5"
+    folder.mkdir()
+    with pytest.raises(IsADirectoryError, match="is a folder, not a file"):
+        io.read_history(folder)
+    text = tmp_path / "notes.h5"
+    text.write_text("hello")
+    with pytest.raises(io.FormatError, match=r"not a readable HDF5 file \(its first bytes are "
+                                             r"b'hello', not HDF5's signature\)"):
+        io.read_history(text)
+    locked = tmp_path / "locked.h5"
+    with h5py.File(locked, "w") as f:    # a program writing it, HDF5's lock held, no SWMR
+        f["x"] = 1
+        f.flush()
+        r = subprocess.run([sys.executable, "-c", "import sys; from engine import io; "
+                            "io.file_content(sys.argv[1])", str(locked)], cwd=ROOT,
+                           env={**ENV, "HDF5_USE_FILE_LOCKING": "TRUE"}, capture_output=True,
+                           text=True, timeout=120)
+    last = r.stderr.strip().splitlines()[-1]
+    assert "another program holds HDF5's lock on it" in last, r.stderr[-1500:]

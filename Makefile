@@ -67,6 +67,7 @@ bench: $(STAMP) sysdeps
 	$(PY) bench/bench_render.py
 	$(PY) bench/bench_experiments.py
 	$(PY) bench/bench_sweep.py
+	$(PY) bench/bench_stop.py
 
 ## make bench-peers: the same scenes in Siconos and Yade (installed with apt if missing)
 bench-peers: $(STAMP)

@@ -28,10 +28,11 @@ from typing import Callable, Iterable
 
 import numpy as np
 
-from .contact import detect, late_contacts_possible
+from . import stop as _stop
+from .contact import detect, late_contacts_possible, restore_pairs
 from .integrator import free_velocity, update
 from .solver.nlgs import _break_links, solve
-from .state import StepStats
+from .state import ContactBuffers, StepStats
 
 
 #: Most extra solves of one step for contacts closed by the solve itself (:func:`step`).
@@ -46,6 +47,58 @@ class NonConvergenceWarning(RuntimeWarning):
     """Some steps of a run hit ``max_iter`` before the NLGS residual reached ``tol``."""
 
 
+class _Undo:
+    """What a step changes before its solve ends, kept so that a stop request seen inside
+    the solve (:class:`engine.stop.StepInterrupted`) can put the state back as it was before
+    the step, bit for bit: positions, velocities, forces and the links' warm start are
+    copied (72 bytes per body and 56 per link, a step's only copy), the contact buffer is
+    swapped with a spare one (detection fills the spare), and a candidate list the step
+    rebuilt is rebuilt as it was (:func:`engine.contact.restore_pairs`)."""
+
+    _ARRAYS = ("position", "vel6", "force", "link_impulse", "link_normal", "link_gap")
+
+    def __init__(self):
+        self.saved = {}
+        self.spare = None
+
+    @staticmethod
+    def needed(model, state) -> bool:
+        """Whether the step's NLGS loop may run in chunks (:func:`engine.stop.in_chunks`), so
+        that a stop request can end it: ``max_iter`` above the sweeps between two looks, for
+        twice the previous step's contacts.  Otherwise the loop is one call (a small scene,
+        at the default max_iter 1000 up to ~1000 contacts) and nothing is kept: the step
+        pays nothing for what it cannot use."""
+        every = _stop.sweeps_between_checks(2 * state.contacts_buf.count, model.n_links)
+        return model.options.max_iter > every
+
+    def keep(self, state) -> None:
+        for name in self._ARRAYS:
+            a = getattr(state, name)
+            b = self.saved.get(name)
+            if b is None or b.shape != a.shape or b.dtype != a.dtype:
+                b = self.saved[name] = np.empty_like(a)
+            np.copyto(b, a)
+        self.pairs = (state.pairs_ref, state.pairs_margin, state.n_pairs,
+                      state.__dict__.get("_sphere_order"))
+        c = state.contacts_buf
+        if self.spare is None or self.spare is c:
+            self.spare = ContactBuffers(c.cap)
+        self.contacts, state.contacts_buf, self.spare = c, self.spare, c
+
+    def restore(self, model, state) -> None:
+        for name in self._ARRAYS:
+            np.copyto(getattr(state, name), self.saved[name])
+        ref, margin, n_pairs, order = self.pairs
+        if state.pairs_ref is not ref:       # the step rebuilt the candidate list
+            if ref is not None:
+                restore_pairs(model, state, ref, margin, n_pairs)
+            state.pairs_ref, state.pairs_margin, state.n_pairs = ref, margin, n_pairs
+            state.__dict__.pop("_sphere_order", None)
+            if order is not None:
+                state.__dict__["_sphere_order"] = order
+        state.contacts_buf = self.contacts
+
+
 def step(model, state) -> StepStats:
     """Advance ``state`` by one time step h = ``model.options.dt`` (in place).
 
@@ -54,6 +107,20 @@ def step(model, state) -> StepStats:
     StepStats
         ``iterations``, ``residual``, ``converged``, ``n_contacts``, ``rebuilt``.
     """
+    return _step(model, state, None)
+
+
+def _step(model, state, undo: _Undo | None) -> StepStats:
+    """:func:`step`; with ``undo`` (:func:`run`), what the step changes before its solve
+    ends is kept there first."""
+    if undo is not None and undo.needed(model, state):
+        undo.keep(state)
+        with _stop.watching():
+            return _stages(model, state)
+    return _stages(model, state)
+
+
+def _stages(model, state) -> StepStats:
     free_velocity(model, state)
     rebuilt = detect(model, state)
     free = state.__dict__.get("_free_vel")          # the free velocities, kept for a second look
@@ -186,8 +253,13 @@ def run(model, state, steps: int, writers: Iterable = (), progress: bool = True)
 
     Notes
     -----
-    Ctrl-C (SIGINT) and SIGTERM stop the run after the current step completes: writers are
-    flushed and the summary (``interrupted=True``) is returned with the state reached.
+    Ctrl-C (SIGINT) and SIGTERM stop the run: after the current step, or inside a long
+    step, whose NLGS loop looks at the request every :func:`engine.stop.sweeps_between_checks`
+    sweeps (about 40 ms of work; steps whose ``max_iter`` sweeps fit in one such chunk are
+    not watched, they end within that time anyway); such a step is undone, the state is the
+    previous step's bit for bit.  Writers are flushed and the summary (``interrupted=True``) is returned with
+    the state reached.  A request made before the run (:func:`engine.stop.request`, what
+    ``nscd``'s SIGTERM handler does from its start) stops it before its first step.
     """
     if not isinstance(steps, (int, np.integer)) or steps < 0:
         raise ValueError(f"steps must be an integer >= 0, got {steps!r}")
@@ -197,6 +269,7 @@ def run(model, state, steps: int, writers: Iterable = (), progress: bool = True)
 
     def _handler(signum, frame):
         stop["flag"] = True
+        _stop.request()
 
     old = {}
     try:  # signals can only be caught in the main thread
@@ -216,9 +289,19 @@ def run(model, state, steps: int, writers: Iterable = (), progress: bool = True)
                    mininterval=0.1 if tty else 10.0)
     t0 = _time.perf_counter()
     total_it = 0
+    undo = _Undo()
     try:
         for _ in range(int(steps)):
-            stats = step(model, state)
+            if _stop.requested():        # also a request made before the run started
+                stop["flag"] = True
+                summary.interrupted = True
+                break
+            try:
+                stats = _step(model, state, undo)
+            except _stop.StepInterrupted:   # inside the step: the state before it, back
+                undo.restore(model, state)
+                summary.interrupted = True
+                break
             _check_finite(model, state)
             summary.steps += 1
             total_it += stats.iterations
@@ -239,6 +322,8 @@ def run(model, state, steps: int, writers: Iterable = (), progress: bool = True)
                 summary.interrupted = True
                 break
     finally:
+        if summary.interrupted or stop["flag"]:
+            _stop.clear()                   # honoured
         for sig, h in old.items():
             signal.signal(sig, h)
         for w in writers:

@@ -680,7 +680,9 @@ def main(argv=None) -> int:
     a = parser().parse_args(argv)
 
     def terminated(signum, frame):   # SIGTERM outside the steps, as Ctrl-C (the steps of
-        raise KeyboardInterrupt        # a run catch both themselves and stop cleanly)
+        from engine import stop        # a run catch both themselves and stop cleanly); the
+        stop.request()                 # request stays, should the exception be swallowed
+        raise KeyboardInterrupt        # (numba loading its cache): the run then stops
 
     try:
         old_term = signal.signal(signal.SIGTERM, terminated)

@@ -72,10 +72,19 @@ def rebuild_pairs(model, state, lookahead: float = 0.0) -> None:
             f"step {state.step + 1}: the predicted positions of {bad.sum()} bodies are not "
             f"finite or beyond 1e6 m (bodies {ids[:10].tolist()}{' ...' if ids.size > 10 else ''}): the "
             f"velocities blew up; lower dt or check the loads")
+    order = _build_pairs(model, state, state.position, margin)
+    state.pairs_ref = state.position.copy()
+    state.pairs_margin = margin
+    state.__dict__["_sphere_order"] = (state.pairs_ref, order)
+
+
+def _build_pairs(model, state, position, margin) -> np.ndarray:
+    """Fill ``state.pairs`` / ``n_pairs`` with the candidate pairs at ``position`` within
+    ``margin``; returns the spheres' cell order."""
     order = np.empty(model.n_spheres, np.int32)
     T = _detect_threads(model)
     while True:
-        args = (state.position, model.body_radius, model.body_group, model.pair_law,
+        args = (position, model.body_radius, model.body_group, model.pair_law,
                 state.link_excluded_next, model.sphere_ids, margin, state.pairs, order)
         if T > 1:
             with numba_threads(T) as used:
@@ -86,9 +95,16 @@ def rebuild_pairs(model, state, lookahead: float = 0.0) -> None:
             break
         state.pairs = np.zeros((int(need * 1.3) + 64, 2), np.int32)
     state.n_pairs = n
-    state.pairs_ref = state.position.copy()
-    state.pairs_margin = margin
-    state.__dict__["_sphere_order"] = (state.pairs_ref, order)
+    return order
+
+
+def restore_pairs(model, state, ref, margin, n_pairs) -> None:
+    """Put back the candidate list built at positions ``ref`` with ``margin`` (the list a
+    step being undone replaced, :func:`engine.step.run`): the same pairs, in the same
+    order, as that build gave."""
+    _build_pairs(model, state, ref, margin)
+    if state.n_pairs != n_pairs:  # the build is a function of (ref, margin): never seen
+        raise RuntimeError(f"restore_pairs: {state.n_pairs} pairs, the build had {n_pairs}")
 
 
 def _sphere_order(model, state) -> np.ndarray:

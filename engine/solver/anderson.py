@@ -89,6 +89,8 @@ class Workspace:
             self.gamma = np.empty(m)
             self.mat = np.empty((m, m))
             self.acc = np.zeros((2, 2))  # unused Quad sums of the serial path
+        if not hasattr(self, "loop"):
+            self.loop = np.zeros(8)  # the loop's counters between two chunks of sweeps
         return self
 
 
@@ -308,34 +310,48 @@ def _mix_groups(par, T, start, k, gamma, dg, w, mu, frame, c_i, c_j, ri, rj, imp
 def iterate_anderson(n, n_pair, c_i, c_j, frame, w, gterm, mu, ri, rj, impulse, body_dyn, vel6,
                      relax, tol, max_iter, nl, link_i, link_j, l_normal, wl, l_unilateral,
                      l_impulse, l_order, m, period, dg, df, dgl, dfl, x, g, f, xl, gl, fl, gram, rhs,
-                     mat, gamma, T, start, acc, min_par, mid):
+                     mat, gamma, T, start, acc, min_par, mid, it0, it1, loop):
     """:func:`engine.solver.nlgs.iterate` with Anderson mixing of depth ``m`` between
     sweeps (module docstring).  ``T`` = 1: serial sweeps (:func:`engine.solver.nlgs.sweep_all`);
     ``T`` > 1: the domain-decomposed sweeps of :func:`engine.solver.parallel.sweep_groups`
     on contacts gathered by group (``start``, ``acc``: its group starts and Quad sums;
     ``min_par``: its :data:`engine.solver.parallel.PARALLEL_SWEEP_MIN_CONTACTS`; ``mid``:
     where each group's contacts touching an immobile body start).
-    Returns ``(iterations, residual)``."""
+
+    Sweeps ``it0`` to ``it1`` - 1 of the ``max_iter`` of the step: a call with ``it0`` > 0
+    goes on from the counters the previous one left in ``loop`` (8,) (the history columns
+    are in the work arrays), so chunks of sweeps give the result of one call, bit for bit
+    (:func:`engine.stop.in_chunks`).
+    Returns ``(iterations of this call, residual)``."""
     if n == 0 and nl == 0:
         return 0, 0.0
-    for a in range(n):
-        for d in range(3):
-            x[a, d] = impulse[a, d]
-    for l in range(nl):
-        xl[l] = l_impulse[l]
     # the passes on threads only where a pass of the sweep is (PARALLEL_SWEEP_MIN_CONTACTS)
     par = T > 1 and start[2 * T - 1] - start[0] >= min_par
     pg = np.zeros((T, m))  # per-chunk partial Gram rows and right-hand sides
     pr = np.zeros((T, m))
-    k = 0          # history columns filled
-    head = 0       # next column to overwrite (ring)
-    have_prev = False
-    prev_res = np.inf
-    best = np.inf
-    stall = 0
-    mixing = True
+    if it0 == 0:
+        for a in range(n):
+            for d in range(3):
+                x[a, d] = impulse[a, d]
+        for l in range(nl):
+            xl[l] = l_impulse[l]
+        k = 0          # history columns filled
+        head = 0       # next column to overwrite (ring)
+        have_prev = False
+        prev_res = np.inf
+        best = np.inf
+        stall = 0
+        mixing = True
+    else:
+        k = int(loop[0])
+        head = int(loop[1])
+        have_prev = loop[2] != 0.0
+        prev_res = loop[3]
+        best = loop[4]
+        stall = int(loop[5])
+        mixing = loop[6] != 0.0
     res = 0.0
-    for it in range(max_iter):
+    for it in range(it0, min(it1, max_iter)):
         if T > 1:
             res = sweep_groups(T, start, mid, c_i, c_j, frame, w, gterm, mu, ri, rj, impulse,
                                body_dyn, vel6, relax, nl, link_i, link_j, l_normal, wl,
@@ -345,7 +361,7 @@ def iterate_anderson(n, n_pair, c_i, c_j, frame, w, gterm, mu, ri, rj, impulse, 
                             vel6, relax, nl, link_i, link_j, l_normal, wl, l_unilateral,
                             l_impulse, l_order)
         if res < tol or it == max_iter - 1:
-            return it + 1, res
+            return it + 1 - it0, res
         if res > RESTART_GROWTH * prev_res:
             k = 0
             head = 0
@@ -429,7 +445,14 @@ def iterate_anderson(n, n_pair, c_i, c_j, frame, w, gterm, mu, ri, rj, impulse, 
                                 l_normal[l, 2], body_dyn, vel6)
                 l_impulse[l] = lam
             xl[l] = lam
-    return max_iter, res
+    loop[0] = k
+    loop[1] = head
+    loop[2] = 1.0 if have_prev else 0.0
+    loop[3] = prev_res
+    loop[4] = best
+    loop[5] = stall
+    loop[6] = 1.0 if mixing else 0.0
+    return min(it1, max_iter) - it0, res
 
 
 _NO_GROUPS = np.zeros(1, np.int64)
@@ -438,10 +461,11 @@ _NO_GROUPS = np.zeros(1, np.int64)
 def run_anderson(ws: Workspace, m, n, n_pair, ci, cj, frame, w, gterm, mu, ri, rj, impulse,
                  body_dyn, vel6, relax, tol, max_iter, nl, link_i, link_j, l_normal, wl,
                  l_unilateral, l_impulse, l_order, T=1, start=None, acc=None, min_par=0,
-                 mid=None):
+                 mid=None, it0=0, it1=None):
     """Call :func:`iterate_anderson` with the buffers of ``ws`` (grown as needed); ``T``,
     ``start``, ``acc``, ``min_par``, ``mid``: the grouped parallel sweep
-    (:func:`engine.solver.parallel.iterate_parallel`)."""
+    (:func:`engine.solver.parallel.iterate_parallel`); ``it0``, ``it1``: the sweeps of this
+    call (default all ``max_iter``)."""
     ws.ensure(m, n, nl)
     if T == 1:
         start = _NO_GROUPS
@@ -451,7 +475,8 @@ def run_anderson(ws: Workspace, m, n, n_pair, ci, cj, frame, w, gterm, mu, ri, r
                             vel6, relax, tol, max_iter, nl, link_i, link_j, l_normal, wl,
                             l_unilateral, l_impulse, l_order, m, PERIOD, ws.dg, ws.df, ws.dgl,
                             ws.dfl, ws.x, ws.g, ws.f, ws.xl, ws.gl, ws.fl, ws.gram, ws.rhs, ws.mat,
-                            ws.gamma, T, start, acc, min_par, mid)
+                            ws.gamma, T, start, acc, min_par, mid, int(it0),
+                            int(max_iter if it1 is None else it1), ws.loop)
 
 
 __all__ = ["iterate_anderson", "run_anderson", "Workspace", "PERIOD", "RESTART_GROWTH",

@@ -20,6 +20,7 @@ import numpy as np
 from numba import njit
 
 from ..model import DYN_INV_INERTIA, DYN_INV_MASS, DYN_LINE, DYN_LX, DYN_LY, DYN_LZ
+from ..stop import in_chunks
 from .local import coulomb
 
 
@@ -706,21 +707,24 @@ def _solve_on(model, state, ci, cj, body_dyn, vel6, pos, link_i, link_j, threads
         if ws is None:
             ws = state._anderson = Workspace()
         if threads == 1:
-            return run_anderson(ws, o.anderson, n, c.n_pair, ci, cj, c.frame, c.w, c.gterm, c.mu,
-                                c.ri, c.rj, c.impulse, body_dyn, vel6, o.relax, o.tol,
-                                o.max_iter, nl, link_i, link_j, state.link_normal, wl,
-                                model.link_unilateral, state.link_impulse, model.link_order)
+            return in_chunks(lambda done, m: run_anderson(
+                ws, o.anderson, n, c.n_pair, ci, cj, c.frame, c.w, c.gterm, c.mu, c.ri, c.rj,
+                c.impulse, body_dyn, vel6, o.relax, o.tol, o.max_iter, nl, link_i, link_j,
+                state.link_normal, wl, model.link_unilateral, state.link_impulse,
+                model.link_order, it0=done, it1=done + m), o.max_iter, o.tol, n + nl)
     if o.hot_sweeps > 0 and threads == 1:  # unmixed (Options refuses anderson > 0)
-        return iterate_hot(n, c.n_pair, ci, cj, c.frame, c.w, c.gterm, c.mu, c.ri, c.rj,
-                           c.impulse, body_dyn, vel6, o.relax, o.tol, o.max_iter,
-                           nl, link_i, link_j, state.link_normal, wl,
-                           model.link_unilateral, state.link_impulse, model.link_order,
-                           o.hot_sweeps, HOT_FACTOR, np.empty(n), np.empty(n, np.int32))
+        q, hot = np.empty(n), np.empty(n, np.int32)
+        return in_chunks(lambda done, m: iterate_hot(
+            n, c.n_pair, ci, cj, c.frame, c.w, c.gterm, c.mu, c.ri, c.rj, c.impulse, body_dyn,
+            vel6, o.relax, o.tol, m, nl, link_i, link_j, state.link_normal, wl,
+            model.link_unilateral, state.link_impulse, model.link_order, o.hot_sweeps,
+            HOT_FACTOR, q, hot), o.max_iter, o.tol, n + nl)
     if threads == 1:
-        return iterate(n, c.n_pair, ci, cj, c.frame, c.w, c.gterm, c.mu, c.ri, c.rj, c.impulse,
-                       body_dyn, vel6, o.relax, o.tol, o.max_iter,
-                       nl, link_i, link_j, state.link_normal, wl,
-                       model.link_unilateral, state.link_impulse, model.link_order)
+        return in_chunks(lambda done, m: iterate(
+            n, c.n_pair, ci, cj, c.frame, c.w, c.gterm, c.mu, c.ri, c.rj, c.impulse, body_dyn,
+            vel6, o.relax, o.tol, m, nl, link_i, link_j, state.link_normal, wl,
+            model.link_unilateral, state.link_impulse, model.link_order),
+            o.max_iter, o.tol, n + nl)
     from .parallel import iterate_parallel
 
     return iterate_parallel(threads, n, ci, cj, c.frame, c.w, c.gterm, c.mu, c.ri, c.rj,

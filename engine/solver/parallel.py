@@ -30,6 +30,7 @@ from __future__ import annotations
 import numpy as np
 from numba import njit, prange
 
+from ..stop import in_chunks
 from ..threads import numba_threads
 
 from ..model import DYN_INV_INERTIA, DYN_INV_MASS, DYN_LINE
@@ -355,19 +356,20 @@ def iterate_parallel(T, n, c_i, c_j, frame, w, gterm, mu, ri, rj, impulse, body_
         if anderson > 0:
             from .anderson import run_anderson
 
-            it, res = run_anderson(workspace, anderson, n, n, g_i, g_j, g_frame, g_w, g_gterm,
-                                   g_mu, g_ri, g_rj, g_imp, body_dyn, vel6, relax, tol, max_iter,
-                                   nl, link_i, link_j, l_normal, wl, l_unilateral, l_impulse,
-                                   l_order, T, start, acc, PARALLEL_SWEEP_MIN_CONTACTS, mid)
+            it, res = in_chunks(lambda done, m_: run_anderson(
+                workspace, anderson, n, n, g_i, g_j, g_frame, g_w, g_gterm, g_mu, g_ri, g_rj,
+                g_imp, body_dyn, vel6, relax, tol, max_iter, nl, link_i, link_j, l_normal, wl,
+                l_unilateral, l_impulse, l_order, T, start, acc, PARALLEL_SWEEP_MIN_CONTACTS,
+                mid, it0=done, it1=done + m_), max_iter, tol, n + nl)
         else:
             hot_sweeps = int(hot_sweeps)
             m = n if hot_sweeps > 0 else 0
-            it, res = iterate_groups(T, n, start, mid, g_i, g_j, g_frame, g_w, g_gterm, g_mu, g_ri,
-                                     g_rj, g_imp, body_dyn, vel6, relax, tol, max_iter, nl,
-                                     link_i, link_j, l_normal, wl, l_unilateral, l_impulse,
-                                     l_order, acc, hot_sweeps, HOT_FACTOR, np.empty(m),
-                                     np.empty(m, np.int32), np.empty(2 * T + 1, np.int64),
-                                     PARALLEL_SWEEP_MIN_CONTACTS)
+            q, hot, hstart = np.empty(m), np.empty(m, np.int32), np.empty(2 * T + 1, np.int64)
+            it, res = in_chunks(lambda done, m_: iterate_groups(
+                T, n, start, mid, g_i, g_j, g_frame, g_w, g_gterm, g_mu, g_ri, g_rj, g_imp,
+                body_dyn, vel6, relax, tol, m_, nl, link_i, link_j, l_normal, wl, l_unilateral,
+                l_impulse, l_order, acc, hot_sweeps, HOT_FACTOR, q, hot, hstart,
+                PARALLEL_SWEEP_MIN_CONTACTS), max_iter, tol, n + nl)
     scatter(n, order, g_imp, impulse)
     return it, res
 

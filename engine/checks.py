@@ -128,6 +128,16 @@ def _numeric(ann) -> bool:
         and all(_numeric(a) for a in args)
 
 
+def _boolean(ann) -> bool:
+    """Whether annotation ``ann`` is bool or an optional bool."""
+    if typing.get_origin(ann) is typing.Annotated:
+        return _boolean(typing.get_args(ann)[0])
+    if ann is bool:
+        return True
+    args = [a for a in typing.get_args(ann) if a is not type(None)]
+    return typing.get_origin(ann) in (typing.Union, types.UnionType) and args == [bool]
+
+
 def _not_a_number(v) -> str | None:
     """What ``v`` is when it is a string, a bool or a container of them (the values
     pydantic's lax mode would turn into numbers), or None."""
@@ -146,13 +156,18 @@ def _not_a_number(v) -> str | None:
 
 class NumbersOnly(BaseModel):
     """A pydantic model whose number fields refuse strings and bools (``dt="1e-5"``,
-    ``max_iter=True``), which pydantic's lax mode converts: there they are a mistake in
-    the caller's code or file.  Numpy's number scalars are numbers."""
+    ``max_iter=True``), and whose bool fields refuse anything but a bool (``resume="yes"``,
+    ``neighbour_contact=1``), which pydantic's lax mode converts: there they are a mistake
+    in the caller's code or file.  Numpy's number scalars are numbers, ``numpy.bool_`` a
+    bool."""
 
     @field_validator("*", mode="before")
     @classmethod
     def _numbers_only(cls, v, info):
         ann = cls.model_fields[info.field_name].annotation
+        if _boolean(ann) and v is not None and not isinstance(v, (bool, np.bool_)):
+            raise ValueError(f"{info.field_name} = {v!r}: must be true or false, not "
+                             f"{type(v).__name__}")
         what = _not_a_number(v) if _numeric(ann) else None
         if what:
             rng = allowed(cls, info.field_name) or \

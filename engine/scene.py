@@ -20,8 +20,32 @@ from .state import State
 OVERLAP_TOLERANCE = 0.01
 
 
+def _numbers(value, name: str):
+    """``value`` unchanged; a ValueError naming ``name`` if it is, or holds, strings or
+    bools (which numpy would turn into numbers: ``"2650"`` → 2650, ``True`` → 1 m)."""
+    from .checks import _not_a_number
+
+    what = _not_a_number(value)
+    if what is None and isinstance(value, np.ndarray) and value.dtype == object:
+        what = next((w for w in map(_not_a_number, value.ravel()) if w), None)
+    if what:
+        raise ValueError(f"{name} must be numbers, got {what}: {value!r}"[:300])
+    return value
+
+
+def _as_array(value, name: str, dtype=float) -> np.ndarray:
+    """``value`` as a numpy array of numbers; a ValueError naming ``name`` for strings,
+    bools, or what is not numbers at all (a dict, ragged lists, None)."""
+    try:
+        return np.asarray(_numbers(value, name), dtype=dtype)
+    except (TypeError, ValueError, OverflowError) as e:
+        if isinstance(e, ValueError) and str(e).startswith(name):
+            raise
+        raise ValueError(f"{name} must be numbers, got {value!r}"[:300]) from None
+
+
 def _finite_array(value, name: str, shape_tail: tuple, dtype=float) -> np.ndarray:
-    a = np.asarray(value, dtype=dtype)
+    a = _as_array(value, name, dtype)
     if a.size == 0 and a.ndim == 1:             # [] : no rows (a filter that kept none)
         a = a.reshape((0, *shape_tail))
     if a.ndim != 1 + len(shape_tail) or a.shape[1:] != shape_tail:
@@ -42,7 +66,7 @@ def check_bool(name: str, value) -> bool:
 
 
 def _vec3(value, name: str, unit: bool = False) -> np.ndarray:
-    a = np.asarray(value, dtype=float)
+    a = _as_array(value, name)
     if a.shape != (3,) or not np.all(np.isfinite(a)):
         raise ValueError(f"{name} must be 3 finite numbers, got {value!r}")
     if unit:
@@ -55,7 +79,7 @@ def _vec3(value, name: str, unit: bool = False) -> np.ndarray:
 
 def _positive(value, name: str, unit: str) -> float:
     try:
-        v = float(value)
+        v = float(_numbers(value, name))
     except (TypeError, ValueError):
         raise ValueError(f"{name} must be a number > 0 {unit}, got {value!r}") from None
     if not np.isfinite(v) or v <= 0.0:
@@ -129,7 +153,7 @@ class Scene:
         c = _finite_array(centers, "centers", (3,))
         n = c.shape[0]
         if np.ndim(radii) == 0:
-            r0 = float(radii)
+            r0 = float(_numbers(radii, "radii"))
             if not (math.isfinite(r0) and r0 > 0.0):
                 raise ValueError(f"radii must be finite and > 0 m, got {radii!r}")
             r = np.full(n, r0)

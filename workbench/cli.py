@@ -56,6 +56,10 @@ from .render import CAMERAS, PRESETS  # noqa: E402  (no PyVista import: it is la
 
 # ---------------------------------------------------------------- configuration files
 
+#: Largest step count of a run file's integer parameters (steps, frames, intervals).
+STEP_LIMIT = 10**9
+
+
 class _Strict(NumbersOnly):
     model_config = ConfigDict(extra="forbid")
 
@@ -66,6 +70,13 @@ class WireConfig(_Strict):
     neighbour_contact: bool = Field(False, description="linked beads also touch like two "
                                                        "spheres (false: a slack link's beads "
                                                        "may overlap)")
+
+    @model_validator(mode="after")
+    def _stiffness_of_elastic_only(self):
+        if self.law != "elastic" and "stiffness" in self.model_fields_set:
+            raise ValueError(f"stiffness = {self.stiffness!r}: the {self.law!r} wire has no "
+                             f"stiffness (elastic only)")
+        return self
 
 
 class SolverParams(_Strict):
@@ -87,8 +98,8 @@ class SolverParams(_Strict):
     mu: float = Field(0.5, ge=0, le=10)
     mu_wire: float = Field(0.3, ge=0, le=10)
     max_nonconverged: float = Field(0.25, ge=0, le=1)
-    record_every: int = Field(10, ge=1)
-    frames: int = Field(100, ge=0)
+    record_every: int = Field(10, ge=1, le=STEP_LIMIT)
+    frames: int = Field(100, ge=0, le=STEP_LIMIT)
 
     @model_validator(mode="after")
     def _hot_alone(self):
@@ -101,17 +112,17 @@ class SolverParams(_Strict):
 
 
 class TriaxialParams(SolverParams):
-    pressure: float = Field(15e3, gt=0, description="[Pa]")
+    pressure: float = Field(15e3, gt=0, le=1e9, description="[Pa]")
     axial_strain: float = Field(0.05, gt=0, le=0.5)
     strain_rate: Optional[float] = Field(None, gt=0, description="[1/s]")
     target_I: float = Field(5e-4, gt=0, le=0.1)
     allow_dynamic: bool = False
-    iso_max_steps: int = Field(4000, ge=1)
+    iso_max_steps: int = Field(4000, ge=1, le=STEP_LIMIT)
     iso_tol: float = Field(0.02, gt=0, lt=1,
                            description="the isotropic stage ends when the stresses are "
                                        "within this fraction of the pressure ...")
-    iso_hold: int = Field(5, ge=1, description="... for this many checks in a row")
-    ramp_steps: int = Field(400, ge=0, description="steps over which the pressure is raised")
+    iso_hold: int = Field(5, ge=1, le=STEP_LIMIT, description="... for this many checks in a row")
+    ramp_steps: int = Field(400, ge=0, le=STEP_LIMIT, description="steps over which the pressure is raised")
 
 
 class CylinderParams(TriaxialParams):
@@ -120,7 +131,7 @@ class CylinderParams(TriaxialParams):
     compaction_mu: Optional[float] = Field(None, ge=0.1, le=10,
                                            description="friction of the isotropic stage "
                                                        "(None: the test's own)")
-    confine_every: int = Field(10, ge=1, description="steps between confinement updates")
+    confine_every: int = Field(10, ge=1, le=STEP_LIMIT, description="steps between confinement updates")
     torus_strains: list[float] = [0.02, 0.05, 0.1]
 
 
@@ -132,7 +143,7 @@ class BoxParams(TriaxialParams):
                                                        "(None: the test's own)")
     wall_mass: Optional[float] = Field(None, gt=0,
                                        description="[kg] (None: 0.2 x the sample's mass)")
-    check_every: int = Field(10, ge=1, description="steps between isotropic-stage checks")
+    check_every: int = Field(10, ge=1, le=STEP_LIMIT, description="steps between isotropic-stage checks")
 
 
 CHECKPOINT_HELP = ("[steps] a checkpoint (RUN.resume.h5) this often, and when Ctrl-C "
@@ -143,14 +154,14 @@ RESUME_HELP = "go on from the checkpoint a stopped or killed run of the same fil
 class SlopeParams(SolverParams):
     tol: float = Field(1e-4, gt=0, lt=1)
     wire_density: Optional[float] = Field(None, gt=0, description="[m/m³]")
-    steps: int = Field(4000, ge=1)
+    steps: int = Field(4000, ge=1, le=STEP_LIMIT)
     ke_fraction: float = Field(1e-4, gt=0, lt=1)
-    rubber_radius: float = Field(0.3e-3, gt=0)
-    floor_extent: float = Field(5.0, gt=0)
+    rubber_radius: float = Field(0.3e-3, gt=0, le=0.1)
+    floor_extent: float = Field(5.0, gt=0, le=100)
     mu_floor: float = Field(0.8, ge=0, le=10)
-    record_every: int = Field(20, ge=1)
-    frames: int = Field(200, ge=0)
-    checkpoint_every: int = Field(0, ge=0, description=CHECKPOINT_HELP)
+    record_every: int = Field(20, ge=1, le=STEP_LIMIT)
+    frames: int = Field(200, ge=0, le=STEP_LIMIT)
+    checkpoint_every: int = Field(0, ge=0, le=STEP_LIMIT, description=CHECKPOINT_HELP)
     resume: bool = Field(False, description=RESUME_HELP)
     fit_degree: Optional[int] = Field(None, ge=1, le=11, description=(
         "degree of the heap's height regression whose steepest slope is the max slope "
@@ -164,12 +175,12 @@ class DepositParams(SolverParams):
         "slope", description="the paper's sample relaxed in its mould")
     wire_density: Optional[float] = Field(None, gt=0,
                                           description="[m/m³] (None: the sample's own)")
-    steps: int = Field(6000, ge=1)
+    steps: int = Field(6000, ge=1, le=STEP_LIMIT)
     ke_fraction: float = Field(1e-4, gt=0, lt=1)
     mu_wall: float = Field(0.5, ge=0, le=10, description="friction of the mould")
-    record_every: int = Field(20, ge=1)
-    frames: int = Field(200, ge=0)
-    checkpoint_every: int = Field(0, ge=0, description=CHECKPOINT_HELP)
+    record_every: int = Field(20, ge=1, le=STEP_LIMIT)
+    frames: int = Field(200, ge=0, le=STEP_LIMIT)
+    checkpoint_every: int = Field(0, ge=0, le=STEP_LIMIT, description=CHECKPOINT_HELP)
     resume: bool = Field(False, description=RESUME_HELP)
 
 
@@ -190,7 +201,7 @@ class RunConfig(_Strict):
     scale: Optional[float] = Field(None, gt=0, le=1.0,
                                    description="sample size (1: the paper's); default: the "
                                                "test function's own")
-    seed: int = Field(0, ge=0)
+    seed: int = Field(0, ge=0, le=2**63 - 1)
     parameters: dict = {}
     wire: WireConfig = WireConfig()
 
@@ -221,6 +232,12 @@ def load_config(path) -> tuple[RunConfig, BaseModel]:
         raise ConfigError(f"{path}: not a text file (not UTF-8: {e.reason} at byte {e.start})")
     except tomllib.TOMLDecodeError as e:
         raise ConfigError(f"{path}: not valid TOML: {e}")
+    return validate_config(raw, path)
+
+
+def validate_config(raw: dict, path="run file") -> tuple[RunConfig, BaseModel]:
+    """:func:`load_config` on the table a TOML file holds: (top level, ``[parameters]``)
+    validated, or ConfigError listing every problem (``path`` names the file)."""
     problems = []
     cfg = None
     try:
@@ -228,6 +245,8 @@ def load_config(path) -> tuple[RunConfig, BaseModel]:
     except ValidationError as e:
         problems += _format_errors(e, RunConfig)
     test = cfg.test if cfg is not None else raw.get("test")
+    if not isinstance(test, str):    # test = [] or 3: reported above, no parameters to read
+        test = None
     params = None
     if test in _PARAMS and isinstance(raw.get("parameters", {}), dict):
         try:

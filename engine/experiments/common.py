@@ -85,10 +85,21 @@ class TestResult:
         return s + f"history {self.history}"
 
 
+#: Largest sample scale the tests build (10: ten times the paper's samples, about 300 000
+#: bodies, a few GB; beyond, the memory asked for runs out before anything is built).
+MAX_SCALE = 10.0
+
+
 def check_scale(scale) -> float:
+    """``scale`` as a float in (0, :data:`MAX_SCALE`] (1: the paper's sample size); a
+    string or a bool is refused."""
+    if isinstance(scale, (bool, np.bool_)) or not isinstance(scale, (int, float, np.number)):
+        raise ValueError(f"scale must be a number in (0, {MAX_SCALE:g}] (1: the paper's "
+                         f"sample), got {scale!r}")
     s = float(scale)
-    if not (math.isfinite(s) and s > 0):
-        raise ValueError(f"scale must be finite and > 0, got {scale!r}")
+    if not (math.isfinite(s) and 0 < s <= MAX_SCALE):
+        raise ValueError(f"scale must be a number in (0, {MAX_SCALE:g}] (1: the paper's "
+                         f"sample), got {scale!r}")
     return s
 
 

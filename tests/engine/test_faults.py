@@ -326,3 +326,39 @@ def test_reading_a_folder_a_text_file_or_a_locked_file_says_so(tmp_path):
                            text=True, timeout=120)
     last = r.stderr.strip().splitlines()[-1]
     assert "another program holds HDF5's lock on it" in last, r.stderr[-1500:]
+
+
+# -- 7. strict types ----------------------------------------------------------------------------
+def test_strings_and_bools_for_numbers_and_numbers_for_bools_are_refused_by_name():
+    """The issue's instances: a string density, string gravity, True for a radius; in a run
+    file resume = "yes", neighbour_contact = 1, a stiffness for the rigid wire; a scale
+    beyond what the tests can build."""
+    from engine import Scene
+    from engine.experiments import gravity_deposit
+    from workbench import cli
+
+    cases = {"density": lambda s: s.add_spheres([[0, 0, 1e-3]], 1e-3, density="2650"),
+             "radii": lambda s: s.add_spheres([[0, 0, 1e-3]], True, density=2650.0),
+             "gravity": lambda s: Scene(gravity=("0", "0", "-9.81")),
+             "point": lambda s: s.add_plane(point={}, normal=(0, 0, 1)),
+             "velocity": lambda s: s.drive(s.add_plane(), velocity=("0", "0", "1"))}
+    for name, fn in cases.items():
+        with pytest.raises(ValueError, match=name) as e:
+            fn(Scene())
+        assert "\n" not in str(e.value)
+    bad = {"resume": ({"test": "gravity_deposit", "parameters": {"resume": "yes"}},
+                      "parameters.resume = 'yes': must be true or false, not str"),
+           "neighbour_contact": ({"test": "gravity_deposit",
+                                  "wire": {"neighbour_contact": 1}},
+                                 "wire.neighbour_contact = 1: must be true or false, not int"),
+           "stiffness": ({"test": "gravity_deposit", "wire": {"law": "rigid", "stiffness": 3.0}},
+                         "the 'rigid' wire has no stiffness"),
+           "steps": ({"test": "gravity_deposit", "parameters": {"steps": 10**12}},
+                     r"parameters.steps = 1000000000000: must be an integer in \[1, 1000000000\]")}
+    for name, (raw, says) in bad.items():
+        with pytest.raises(cli.ConfigError, match=says):
+            cli.validate_config(raw, "f.toml")
+    with pytest.raises(ValueError, match=r"scale must be a number in \(0, 10\]"):
+        gravity_deposit(1e9)
+    with pytest.raises(ValueError, match="scale must be a number"):
+        gravity_deposit("0.05")

@@ -215,7 +215,9 @@ def test_named_experiment_rejects_bad_input_before_running(tmp_path):
            ({"scale": [0.03], "dt": [1e-4, -1.0]}, r"case \{.*'dt': -1.0\}: Options: dt = -1.0: "
                                                    r"must be a finite number > 0"),
            ({"scale": [0.03], "theta": [0.3]}, r"theta = 0.3: must be a number in \[0.5, 1\]"),
-           ({"scale": [0.0]}, r"scale must be finite and > 0"),
+           ({"scale": [0.0]}, r"scale must be a number in \(0, 10\]"),
+           ({"scale": [1e9]}, r"scale must be a number in \(0, 10\] \(1: the paper's sample\), "
+                              r"got 1000000000.0"),
            ({"scale": [0.03], "frictoin": [0.3]}, "takes no parameter 'frictoin'; its "
                                                    "parameters are .*mu_wire"),
            # types (issue 33: "steps=abc" ran the case twice before failing)

@@ -40,7 +40,7 @@ def test_info_render_export(demo, tmp_path, capsys):
 @pytest.mark.parametrize("toml, expected", [
     ('test = "cylinder_triaxial"\nscale = 0.05\ncolour = "red"\n', "colour"),
     ('test = "cylinder_triaxial"\n[parameters]\npressure = -5.0\n',
-     "parameters.pressure = -5.0: must be a number > 0"),
+     "parameters.pressure = -5.0: must be a number in (0, 1e+09]"),
     ('test = "box_triaxial"\n[parameters]\naxial_strain = "a lot"\n', "parameters.axial_strain"),
     ('test = "triaxial"\n', "test"),
     ('test = "slope_deposit"\nscale = 0\n', "scale = 0: must be a number in (0, 1]"),
@@ -152,7 +152,7 @@ def test_run_help_lists_every_parameter_with_its_range(capsys):
                  "0.05, slope_deposit 0.02, gravity_deposit 0.05)",
                  "law: default 'elastic'; one of 'elastic', 'rigid', 'none'",
                  "[parameters] of slope_deposit:", "theta: default 0.5; a number in [0.5, 1]",
-                 "pressure: default 15000.0; a number > 0 — [Pa]",
+                 "pressure: default 15000.0; a number in (0, 1e+09] — [Pa]",
                  "strain_rate: default None; a number > 0 — [1/s]"):
         assert line in out, line
     for name in cli.CylinderParams.model_fields:
@@ -196,7 +196,7 @@ def test_run_file_numbers_are_not_strings(tmp_path, capsys):
     err = capsys.readouterr().err
     for line in ("scale = '0.02': must be a number in (0, 1], not a string",
                  "parameters.dt = '1e-5': must be a number in (0, 0.01], not a string",
-                 "parameters.steps = True: must be an integer >= 1, not a bool"):
+                 "parameters.steps = True: must be an integer in [1, 1000000000], not a bool"):
         assert line in err, (line, err)
 
 

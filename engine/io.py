@@ -305,7 +305,10 @@ HISTORY_SCALARS = {
     "time": (np.float64, "s"), "step": (np.int64, "-"), "kinetic_energy": (np.float64, "J"),
     "iterations": (np.int32, "-"), "residual": (np.float64, "-"), "converged": (np.int8, "-"),
     "n_contacts": (np.int32, "-"), "n_links": (np.int32, "-"),
+    "max_overlap": (np.float64, "-"),
 }
+#: Records a history written before them lacks (read as NaN).
+_LATER_SCALARS = ("max_overlap",)
 
 
 #: HDF5 file-format bounds: v1.10 objects carry metadata checksums and allow SWMR; files
@@ -1093,7 +1096,8 @@ class History:
                 for k in src:
                     src.copy(src[k], dst, name=k)
                 g, fg = dst["records"], dst["frames"]
-                cols = [*HISTORY_SCALARS, "wall_force", *names]
+                cols = [c for c in [*HISTORY_SCALARS, "wall_force", *names]
+                        if c in g or c not in _LATER_SCALARS]
                 # keep up to the last record the trigger takes at or before the step (the
                 # record and frame a stopped run wrote of its end state off that grid go)
                 n = _record_count(g, cols)
@@ -1193,6 +1197,7 @@ class History:
                "kinetic_energy": kinetic_energy(model, state), "iterations": st.iterations,
                "residual": st.residual, "converged": st.converged, "n_contacts": st.n_contacts,
                "n_links": int(np.count_nonzero(state.link_impulse)),
+               "max_overlap": getattr(st, "max_overlap", 0.0),
                "wall_force": wall_forces(model, state)}
         for name, (fn, _) in self.extra.items():
             v = np.asarray(fn(model, state))
@@ -1202,7 +1207,8 @@ class History:
                                  f"(as at the first record)")
             row[name] = v
         for name, v in row.items():  # all or nothing: the columns stay the same length
-            self._buf[name].append(v)
+            if name in self._buf:       # (a resumed older history lacks the later columns)
+                self._buf[name].append(v)
 
     def _frame(self, model, state) -> None:
         c = state.contacts
@@ -1235,7 +1241,8 @@ class HistoryData:
     """Arrays of a history file (:func:`read_history`); n records, f frames, nw walls.
 
     Records: ``time`` (n,) [s], ``step`` (n,), ``kinetic_energy`` (n,) [J], ``iterations``,
-    ``residual``, ``converged`` (bool), ``n_contacts``, ``n_links`` (n,), ``wall_force``
+    ``residual``, ``converged`` (bool), ``n_contacts``, ``n_links``, ``max_overlap`` (n,)
+    (largest contact overlap / smaller radius; NaN in a file written before it), ``wall_force``
     (n, nw, 3) [N] for the walls ``wall_ids``, ``extra`` {name: (n, ...)}.
     Frames: ``frame_step``, ``frame_time`` (f,) [s], ``position``, ``velocity``, ``spin``
     (f, nb, 3) [m, m/s, rad/s], ``link_tension`` (f, nl) [N], ``link_broken`` (f, nl);
@@ -1251,6 +1258,7 @@ class HistoryData:
     converged: np.ndarray
     n_contacts: np.ndarray
     n_links: np.ndarray
+    max_overlap: np.ndarray
     wall_force: np.ndarray
     wall_ids: np.ndarray
     extra: dict = field(default_factory=dict)
@@ -1332,10 +1340,14 @@ def read_history(path, frames: bool = True) -> HistoryData:
             raise FormatError("the history holds no record yet")
         g = f["records"]
         extra = json.loads(g.attrs["extra"])
-        names = [*HISTORY_SCALARS, "wall_force", *extra]
+        scalars = [c for c in HISTORY_SCALARS if c in g or c not in _LATER_SCALARS]
+        names = [*scalars, "wall_force", *extra]
         n = _record_count(g, names)
         units = {name: str(g[name].attrs["unit"]) for name in names}
         rec = {name: g[name][:n] for name in names}
+        for c in _LATER_SCALARS:
+            if c not in rec:
+                rec[c], units[c] = np.full(n, np.nan), HISTORY_SCALARS[c][1]
         data = HistoryData(**{name: rec[name] for name in HISTORY_SCALARS},
                            wall_force=rec["wall_force"], wall_ids=g["wall_ids"][()],
                            extra={name: rec[name] for name in extra}, units=units)

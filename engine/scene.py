@@ -18,6 +18,12 @@ from .state import State
 
 #: Overlap allowed at compile time, as a fraction of the smaller radius.
 OVERLAP_TOLERANCE = 0.01
+#: Largest density [kg/m³] of a body: 4 000 times osmium's (22 590 kg/m³), room for mass
+#: scaling.  Beyond, products of masses overflow in the solver (a density of 1e308 sank a
+#: sphere through the floor, every step "converged").
+MAX_DENSITY = 1e8
+#: Body masses [kg] the solver's products of masses and impulses hold (squares < 1e300).
+MASS_RANGE = (1e-100, 1e100)
 
 
 def _numbers(value, name: str):
@@ -165,6 +171,9 @@ class Scene:
         if bad.size:
             raise ValueError(f"radii must be finite and > 0 m; bad values at ids {bad[:10].tolist()}")
         rho = _positive(density, "density", "[kg/m³]")
+        if rho > MAX_DENSITY:
+            raise ValueError(f"density = {density!r}: must be at most {MAX_DENSITY:g} kg/m³ "
+                             f"(beyond, the solver's products of masses overflow)")
         v = np.zeros((n, 3)) if velocities is None else _finite_array(velocities, "velocities", (3,))
         w = np.zeros((n, 3)) if spins is None else _finite_array(spins, "spins", (3,))
         if v.shape[0] != n or w.shape[0] != n:
@@ -172,6 +181,11 @@ class Scene:
         g = self._group_index(group)
         first = self.n_bodies
         mass = rho * 4.0 / 3.0 * np.pi * r ** 3
+        bad = np.flatnonzero(~((mass >= MASS_RANGE[0]) & (mass <= MASS_RANGE[1])))
+        if bad.size:
+            raise ValueError(f"radii and density give masses outside [{MASS_RANGE[0]:g}, "
+                             f"{MASS_RANGE[1]:g}] kg (the solver's products of masses overflow)"
+                             f" at ids {bad[:10].tolist()}: e.g. {mass[bad[0]]:g} kg")
         for k in range(n):
             self._kind.append(SPHERE)
             self._group.append(g)
@@ -485,7 +499,8 @@ class Scene:
 
     def compile(self, dt: float, theta: float = 0.5, tol: float = 1e-4, max_iter: int = 1000,
                 relax: float = 1.0, alert: float | None = None, skin: float | None = None,
-                threads: int = 1, anderson: int = 0, hot_sweeps: int = 0):
+                threads: int = 1, anderson: int = 0, hot_sweeps: int = 0,
+                max_overlap: float = 2.0):
         """Freeze the scene into a :class:`Model` and its initial :class:`State`.
 
         Parameters
@@ -495,6 +510,9 @@ class Scene:
         tol : float > 0 ; max_iter : int >= 1 ; relax : float in (0, 2)
             NLGS tolerance (Quad norm), sweep cap and relaxation ω (> 1: over-relaxation,
             :attr:`engine.model.Options.relax`).
+        max_overlap : float > 0
+            Largest contact overlap, as a fraction of the smaller radius, past which a run
+            stops with an error (:attr:`engine.model.Options.max_overlap`).
         alert, skin : float [m]
             Alert distance (default 0.1 × smallest sphere radius) and Verlet skin (default
             0.5 × smallest radius).
@@ -524,7 +542,8 @@ class Scene:
         opts = Options(dt=dt, theta=theta, tol=tol, max_iter=max_iter, relax=relax,
                        alert=0.1 * rmin if alert is None else alert,
                        skin=0.5 * rmin if skin is None else skin, gravity=self.gravity,
-                       threads=threads, anderson=anderson, hot_sweeps=hot_sweeps)
+                       threads=threads, anderson=anderson, hot_sweeps=hot_sweeps,
+                       max_overlap=max_overlap)
 
         dof = np.where(kind == SPHERE, FREE, IMPOSED).astype(np.int8)
         line = np.zeros((nb, 3))

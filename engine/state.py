@@ -31,6 +31,11 @@ class StepStats:
         Contacts that the free velocities left open but the solved ones closed (a grain
         stopped under a falling one at a large time step): added, and the step solved
         again (:func:`engine.step.step`).  Their sweeps are in ``iterations``.
+    max_overlap : float
+        Largest overlap of the step's contacts (at the predicted configuration where they
+        were detected) / the smaller radius of the two bodies [-] (:mod:`engine.sanity`).
+    overlap_pair : (int, int)
+        Its two bodies ((-1, -1) without overlap).
     """
 
     iterations: int = 0
@@ -39,6 +44,11 @@ class StepStats:
     n_contacts: int = 0
     rebuilt: bool = False
     late_contacts: int = 0
+    max_overlap: float = 0.0
+    overlap_pair: tuple = (-1, -1)
+
+    def __post_init__(self):
+        self.overlap_pair = tuple(int(x) for x in self.overlap_pair)   # a file gives a list
 
 
 class ContactBuffers:

@@ -31,6 +31,7 @@ import numpy as np
 from . import stop as _stop
 from .contact import detect, late_contacts_possible, restore_pairs
 from .integrator import free_velocity, update
+from .sanity import OVERLAP_WARN, PhysicsWarning, max_overlap, through_planes
 from .solver.nlgs import _break_links, solve
 from .state import ContactBuffers, StepStats
 
@@ -146,8 +147,11 @@ def _stages(model, state) -> StepStats:
     if model.n_links:
         _break_links(model, state, model.options.dt)
     update(model, state)
+    ov, at = max_overlap(c.count, c.gap, c.ri, c.rj, c.i, model.body_dof)
     stats = StepStats(iterations=it, residual=res, converged=res < model.options.tol,
-                      n_contacts=c.count, rebuilt=rebuilt, late_contacts=late)
+                      n_contacts=c.count, rebuilt=rebuilt, late_contacts=late,
+                      max_overlap=float(ov),
+                      overlap_pair=(int(c.i[at]), int(c.j[at])) if at >= 0 else (-1, -1))
     state.stats = stats
     return stats
 
@@ -194,6 +198,11 @@ class RunSummary:
         Largest final residual over the run's steps.
     mean_iterations : float
     max_contacts : int
+    max_overlap : float
+        Largest contact overlap of the run / the smaller radius [-]; above
+        :data:`engine.sanity.OVERLAP_WARN` the summary says so.
+    max_overlap_step : int
+        The step it was seen (-1: no overlap).
     """
 
     steps: int = 0
@@ -204,6 +213,8 @@ class RunSummary:
     max_residual: float = 0.0
     mean_iterations: float = 0.0
     max_contacts: int = 0
+    max_overlap: float = 0.0
+    max_overlap_step: int = -1
 
     def __str__(self) -> str:
         nc = len(self.non_converged)
@@ -214,9 +225,34 @@ class RunSummary:
             head += f"{nc} steps did NOT converge (max residual {self.max_residual:.3g}): steps {shown}"
         else:
             head += f"all steps converged (max residual {self.max_residual:.3g})"
+        if self.max_overlap > OVERLAP_WARN:
+            head += (f"; WARNING: overlaps up to {100 * self.max_overlap:.3g} % of a radius "
+                     f"(step {self.max_overlap_step}; above {100 * OVERLAP_WARN:g} %: lower "
+                     f"dt, or check speeds, loads and masses)")
         if self.interrupted:
             head += "; interrupted"
         return head
+
+
+def _check_physics(model, state, stats, planes) -> None:
+    """The checks of :mod:`engine.sanity` that stop a run: an overlap past
+    ``Options.max_overlap``, a sphere through a plane it interacts with."""
+    limit = model.options.max_overlap
+    if stats.max_overlap > limit:
+        i, j = stats.overlap_pair
+        raise SimulationError(
+            f"step {state.step} (t = {state.time:.6g} s): bodies {i} and {j} overlap by "
+            f"{100 * stats.max_overlap:.3g} % of a radius, past max_overlap = {limit:g}; "
+            f"lower dt = {model.options.dt:g} s, or check speeds, loads and masses")
+    if planes.size:
+        b, p = through_planes(state.position, model.body_radius, model.body_group,
+                              model.sphere_ids, planes, model.pair_law, model.body_axis,
+                              model.body_dof)
+        if b >= 0:
+            raise SimulationError(
+                f"step {state.step} (t = {state.time:.6g} s): sphere {b} went through plane "
+                f"{p} (its centre is behind the plane by more than its radius); lower dt = "
+                f"{model.options.dt:g} s, or check the wall's drive and the loads")
 
 
 def _check_finite(model, state) -> None:
@@ -290,6 +326,9 @@ def run(model, state, steps: int, writers: Iterable = (), progress: bool = True)
     t0 = _time.perf_counter()
     total_it = 0
     undo = _Undo()
+    from .model import PLANE
+
+    planes = model.wall_ids[model.body_kind[model.wall_ids] == PLANE].astype(np.int64)
     try:
         for _ in range(int(steps)):
             if _stop.requested():        # also a request made before the run started
@@ -303,6 +342,9 @@ def run(model, state, steps: int, writers: Iterable = (), progress: bool = True)
                 summary.interrupted = True
                 break
             _check_finite(model, state)
+            if stats.max_overlap > summary.max_overlap:
+                summary.max_overlap, summary.max_overlap_step = stats.max_overlap, state.step
+            _check_physics(model, state, stats, planes)
             summary.steps += 1
             total_it += stats.iterations
             summary.max_residual = max(summary.max_residual, stats.residual)
@@ -334,6 +376,11 @@ def run(model, state, steps: int, writers: Iterable = (), progress: bool = True)
         summary.wall_time = _time.perf_counter() - t0
         summary.time = state.time
         summary.mean_iterations = total_it / summary.steps if summary.steps else 0.0
+    if summary.max_overlap > OVERLAP_WARN:
+        warnings.warn(f"overlaps up to {100 * summary.max_overlap:.3g} % of a radius (step "
+                      f"{summary.max_overlap_step}), above {100 * OVERLAP_WARN:g} %: lower dt "
+                      f"= {model.options.dt:g} s, or check speeds, loads and masses",
+                      PhysicsWarning, stacklevel=2)
     if summary.non_converged:
         warnings.warn(str(summary), NonConvergenceWarning, stacklevel=2)
     elif progress:

@@ -4,6 +4,7 @@ beside a good checkpoint, files that cannot be read for a reason the message mus
 
 The full-disk tests mount a small tmpfs (root only; skipped with the reason otherwise); the
 lock tests use real processes."""
+import dataclasses
 import os
 import signal
 import subprocess
@@ -362,3 +363,80 @@ def test_strings_and_bools_for_numbers_and_numbers_for_bools_are_refused_by_name
         gravity_deposit(1e9)
     with pytest.raises(ValueError, match="scale must be a number"):
         gravity_deposit("0.05")
+
+
+# -- 5. physics outside its validity --------------------------------------------------------------
+def _lid_scene(speed, **compile_kw):
+    from engine import Scene, laws
+
+    s = Scene(gravity=(0, 0, -9.81))
+    s.add_spheres([[0, 0, 1.0e-3]], 1e-3, density=2650.0)
+    s.add_plane(group="floor")
+    lid = s.add_plane(point=(0, 0, 3e-3), normal=(0, 0, -1), group="lid")
+    s.drive(lid, velocity=(0, 0, -speed))
+    for g in ("floor", "lid"):
+        s.interact("sand", g, laws.Coulomb(mu=0.5))
+    return s.compile(dt=1e-4, **compile_kw)
+
+
+def test_overlaps_are_reported_and_past_the_users_bound_stop_the_run(tmp_path):
+    """A pile of 300 grains at dt = 10 ms (inside the documented range) ends with overlaps
+    of about a fifth of a radius: the summary and a PhysicsWarning say so with the number,
+    and the history records each step's largest overlap; the same run with
+    ``max_overlap=0.1`` stops with a SimulationError naming the step and the two bodies.
+    At dt = 0.2 ms the largest overlap stays under 1 % and nothing is said."""
+    from engine import sanity
+    from engine.step import SimulationError
+    from tests.helpers import box_pile
+
+    model, state, *_ = box_pile(300, 0.02, dt=1e-2, tol=1e-4, max_iter=1000)
+    with io.History(tmp_path / "h.h5", frames=0) as h, pytest.warns(sanity.PhysicsWarning,
+                                                                  match=r"overlaps up to"):
+        summary = run(model, state, 40, writers=[h], progress=False)
+    assert 0.1 < summary.max_overlap < 1.0 and "WARNING: overlaps up to" in str(summary)
+    d = io.read_history(tmp_path / "h.h5", frames=False)
+    assert d.max_overlap.max() == summary.max_overlap and d.units["max_overlap"] == "-"
+    model, state, *_ = box_pile(300, 0.02, dt=1e-2, tol=1e-4, max_iter=1000)
+    model = dataclasses.replace(model, options=model.options.model_copy(
+        update={"max_overlap": 0.1}))
+    with pytest.raises(SimulationError, match=r"step \d+ .*bodies \d+ and \d+ overlap by "
+                                              r"[\d.]+ % of a radius, past max_overlap = 0.1"):
+        run(model, state, 40, progress=False)
+    model, state, *_ = box_pile(300, 0.02, dt=2e-4, tol=1e-4, max_iter=1000)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", sanity.PhysicsWarning)
+        summary = run(model, state, 2000, progress=False)
+    assert summary.max_overlap < 0.01 and "WARNING" not in str(summary)
+
+
+def test_a_lid_driven_through_a_ball_stops_the_run_naming_it():
+    """A lid driven at 1000 m/s onto a 1 mm ball: the overlap stops the run at step 1; with
+    the overlap bound lifted, the ball found behind a plane (the lid pushed it through the
+    floor) does."""
+    from engine.step import SimulationError
+
+    model, state = _lid_scene(1000.0)
+    with pytest.raises(SimulationError, match=r"step 1 .*bodies 0 and 2 overlap"):
+        run(model, state, 20, progress=False)
+    model, state = _lid_scene(1000.0, max_overlap=1e3)
+    with pytest.raises(SimulationError, match=r"sphere 0 went through plane [12] "):
+        run(model, state, 20, progress=False)
+
+
+def test_densities_and_masses_whose_products_overflow_are_refused():
+    from engine import Scene
+
+    for kw, says in ((dict(radii=1e-3, density=1e308), "density = 1e.308: must be at most 1e.08"),
+                     (dict(radii=1e40, density=1.0), r"masses outside \[1e-100, 1e\+100\] kg"),
+                     (dict(radii=1e-40, density=1.0), r"masses outside")):
+        with pytest.raises(ValueError, match=says):
+            Scene().add_spheres([[0, 0, 0]], kw["radii"], density=kw["density"])
+
+
+def test_a_history_written_before_the_overlap_record_reads_it_as_nan(tmp_path):
+    path = tmp_path / "old.h5"
+    _history_run(path, steps=20)
+    with h5py.File(path, "a") as f:
+        del f["records/max_overlap"]
+    d = io.read_history(path, frames=False)
+    assert d.n_records == 20 and np.isnan(d.max_overlap).all()

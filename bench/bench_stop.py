@@ -11,7 +11,9 @@ Writes bench/results/stop-<YYYYmmdd-HHMM>.json.
    run with the undo switched off, interleaved repetitions in one process, minimum over
    them; on three scenes of 8 000 spheres (radii 0.95-1 mm, seeded): a cloud of 3 mm pitch
    falling (it reaches the floor), a cubic lattice of 2 mm pitch settling on a floor at the default tol 1e-4,
-   and the same at tol 1e-6 (the piles measured from step 50 on, loaded).  The ratio is the figure: the yardstick is the same run without it.
+   and the same at tol 1e-6 (the piles measured from step 50 on, loaded).  Also the same runs
+   without :mod:`engine.sanity`'s per-step checks (the overlap pass over the contacts, the
+   spheres behind planes): ``checks_ratio``.  The ratio is the figure: the yardstick is the same run without it.
 2. ``latency``: a child process in a step that cannot converge (tol 1e-300, max_iter 10^9)
    gets SIGTERM 2 s into it; the time from the signal to the run's return (measured in the
    child on the system-wide monotonic clock), median over repeats.
@@ -63,24 +65,30 @@ def overhead(quick: bool) -> list:
         if quick:
             steps = max(2, steps // 10)
         run(model, state0, 3 if "cloud" in name else 50, progress=False)   # loaded piles
-        times = {"with undo": [], "without": []}
+        times = {"with undo": [], "without": [], "without checks": []}
         keep = step_mod._Undo.__dict__["needed"]
+        checks = step_mod._check_physics, step_mod.max_overlap
         for rep in range(2 if quick else 5):
             for mode in times:
                 if mode == "without":
                     step_mod._Undo.needed = staticmethod(lambda m, s: False)
+                if mode == "without checks":     # engine.sanity's per-step checks off
+                    step_mod._check_physics = lambda *a: None
+                    step_mod.max_overlap = lambda *a: (0.0, -1)
                 s = copy.deepcopy(state0)
                 t = time.perf_counter()
                 summary = run(model, s, steps, progress=False)
                 times[mode].append((time.perf_counter() - t) / steps)
                 step_mod._Undo.needed = keep
-        a, b = min(times["with undo"]), min(times["without"])
+                step_mod._check_physics, step_mod.max_overlap = checks
+        a, b, c = (min(times[k]) for k in times)
         row = dict(scene=name, bodies=model.n_bodies, steps=steps,
                    sweeps_per_step=summary.mean_iterations, contacts=summary.max_contacts,
-                   step_s_with_undo=a, step_s_without=b, ratio=a / b)
+                   step_s_with_undo=a, step_s_without=b, ratio=a / b,
+                   step_s_without_checks=c, checks_ratio=a / c)
         print(f"  {name:34s} {a * 1e3:8.3f} ms/step with the undo, {b * 1e3:8.3f} without: "
-              f"x{a / b:.3f} ({summary.mean_iterations:.0f} sweeps, "
-              f"{summary.max_contacts} contacts)")
+              f"x{a / b:.3f}; without the sanity checks {c * 1e3:8.3f}: x{a / c:.3f} "
+              f"({summary.mean_iterations:.0f} sweeps, {summary.max_contacts} contacts)")
         out.append(row)
     return out
 

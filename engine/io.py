@@ -305,10 +305,10 @@ HISTORY_SCALARS = {
     "time": (np.float64, "s"), "step": (np.int64, "-"), "kinetic_energy": (np.float64, "J"),
     "iterations": (np.int32, "-"), "residual": (np.float64, "-"), "converged": (np.int8, "-"),
     "n_contacts": (np.int32, "-"), "n_links": (np.int32, "-"),
-    "max_overlap": (np.float64, "-"),
+    "max_overlap": (np.float64, "-"), "energy_gain": (np.float64, "J"),
 }
 #: Records a history written before them lacks (read as NaN).
-_LATER_SCALARS = ("max_overlap",)
+_LATER_SCALARS = ("max_overlap", "energy_gain")
 
 
 #: HDF5 file-format bounds: v1.10 objects carry metadata checksums and allow SWMR; files
@@ -1198,6 +1198,7 @@ class History:
                "residual": st.residual, "converged": st.converged, "n_contacts": st.n_contacts,
                "n_links": int(np.count_nonzero(state.link_impulse)),
                "max_overlap": getattr(st, "max_overlap", 0.0),
+               "energy_gain": getattr(st, "energy_gain", 0.0),
                "wall_force": wall_forces(model, state)}
         for name, (fn, _) in self.extra.items():
             v = np.asarray(fn(model, state))
@@ -1242,7 +1243,9 @@ class HistoryData:
 
     Records: ``time`` (n,) [s], ``step`` (n,), ``kinetic_energy`` (n,) [J], ``iterations``,
     ``residual``, ``converged`` (bool), ``n_contacts``, ``n_links``, ``max_overlap`` (n,)
-    (largest contact overlap / smaller radius; NaN in a file written before it), ``wall_force``
+    (largest contact overlap / smaller radius; NaN in a file written before it),
+    ``energy_gain`` (n,) [J] (the work of the step's reactions on the free spheres,
+    :func:`engine.sanity.reaction_gain`; NaN in a file written before it), ``wall_force``
     (n, nw, 3) [N] for the walls ``wall_ids``, ``extra`` {name: (n, ...)}.
     Frames: ``frame_step``, ``frame_time`` (f,) [s], ``position``, ``velocity``, ``spin``
     (f, nb, 3) [m, m/s, rad/s], ``link_tension`` (f, nl) [N], ``link_broken`` (f, nl);
@@ -1259,6 +1262,7 @@ class HistoryData:
     n_contacts: np.ndarray
     n_links: np.ndarray
     max_overlap: np.ndarray
+    energy_gain: np.ndarray
     wall_force: np.ndarray
     wall_ids: np.ndarray
     extra: dict = field(default_factory=dict)

@@ -81,13 +81,19 @@ class Coulomb(Law):
         return (self.mu, 0.0, 0.0, 0.0)
 
 
+#: Largest prestrain ε₀ of a wire law: at 1 a link's reference length is half its initial
+#: length.  Beyond, the reference length tends to 0 (g(0)/(1+ε₀)): ε₀ = 1e6 was accepted and
+#: pulled a wire's beads onto one another (issue 33).
+MAX_PRESTRAIN = 1.0
+
+
 class WireLaw(Law):
     """Base of the point–point wire laws (Eq. 7-15): parameter row
     (stiffness [N] (inf = rigid), prestrain ε₀ [-], max_tension [N] (inf = unbreakable),
     unilateral flag (1 = wire: tension only, 0 = rod: any sign))."""
 
-    prestrain: float = Field(0.0, gt=-1.0, allow_inf_nan=False,
-                             description="ε₀ of g_ref = g(0)/(1+ε₀) [-], > -1")
+    prestrain: float = Field(0.0, gt=-1.0, le=MAX_PRESTRAIN, allow_inf_nan=False,
+                             description="ε₀ of g_ref = g(0)/(1+ε₀) [-], in (-1, 1]")
     unilateral: ClassVar[bool]
 
     @property
@@ -112,7 +118,7 @@ class ElasticRod(WireLaw):
     Parameters
     ----------
     stiffness : float [N], > 0 (force per unit strain)
-    prestrain : float [-], > -1
+    prestrain : float [-], in (-1, 1] (:data:`MAX_PRESTRAIN`)
     """
 
     code: ClassVar[int] = ELASTIC_ROD
@@ -133,7 +139,7 @@ class ElasticWire(WireLaw):
     Parameters
     ----------
     stiffness : float [N], > 0
-    prestrain : float [-], > -1
+    prestrain : float [-], in (-1, 1] (:data:`MAX_PRESTRAIN`)
     """
 
     code: ClassVar[int] = ELASTIC_WIRE

@@ -36,6 +36,12 @@ class StepStats:
         were detected) / the smaller radius of the two bodies [-] (:mod:`engine.sanity`).
     overlap_pair : (int, int)
         Its two bodies ((-1, -1) without overlap).
+    energy_gain : float [J]
+        Kinetic energy of the free spheres after the step minus that of their free motion:
+        the work of the reactions, <= 0 for contacts and rigid links
+        (:func:`engine.sanity.reaction_gain`).
+    free_energy : float [J]
+        Kinetic energy of the free spheres' free motion (the reference of ``energy_gain``).
     """
 
     iterations: int = 0
@@ -46,6 +52,8 @@ class StepStats:
     late_contacts: int = 0
     max_overlap: float = 0.0
     overlap_pair: tuple = (-1, -1)
+    energy_gain: float = 0.0
+    free_energy: float = 0.0
 
     def __post_init__(self):
         self.overlap_pair = tuple(int(x) for x in self.overlap_pair)   # a file gives a list

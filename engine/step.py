@@ -31,7 +31,8 @@ import numpy as np
 from . import stop as _stop
 from .contact import detect, late_contacts_possible, restore_pairs
 from .integrator import free_velocity, update
-from .sanity import OVERLAP_WARN, PhysicsWarning, max_overlap, through_planes
+from .sanity import (ENERGY_WARN, OVERLAP_WARN, THROUGH, PhysicsWarning, energy_sources,
+                     max_overlap, reaction_gain, through_walls)
 from .solver.nlgs import _break_links, solve
 from .state import ContactBuffers, StepStats
 
@@ -146,12 +147,15 @@ def _stages(model, state) -> StepStats:
         it += more
     if model.n_links:
         _break_links(model, state, model.options.dt)
+    gain, base = reaction_gain(state.vel6, free, model.body_mass, model.body_inertia,
+                               model.sphere_ids, model.body_dof)
     update(model, state)
     ov, at = max_overlap(c.count, c.gap, c.ri, c.rj, c.i, model.body_dof)
     stats = StepStats(iterations=it, residual=res, converged=res < model.options.tol,
                       n_contacts=c.count, rebuilt=rebuilt, late_contacts=late,
                       max_overlap=float(ov),
-                      overlap_pair=(int(c.i[at]), int(c.j[at])) if at >= 0 else (-1, -1))
+                      overlap_pair=(int(c.i[at]), int(c.j[at])) if at >= 0 else (-1, -1),
+                      energy_gain=float(gain), free_energy=float(base))
     state.stats = stats
     return stats
 
@@ -203,6 +207,14 @@ class RunSummary:
         :data:`engine.sanity.OVERLAP_WARN` the summary says so.
     max_overlap_step : int
         The step it was seen (-1: no overlap).
+    energy_gain : float
+        Largest kinetic energy the reactions added to the free motion in one step, as a
+        fraction of the free motion's (:func:`engine.sanity.reaction_gain`; 0 when none
+        did), looked at in scenes without drives, elastic links or stretched rigid links only
+        (:func:`engine.sanity.energy_sources`); above :data:`engine.sanity.ENERGY_WARN`
+        the summary says so.
+    energy_gain_step : int
+        The step it was seen (-1: none).
     """
 
     steps: int = 0
@@ -215,6 +227,8 @@ class RunSummary:
     max_contacts: int = 0
     max_overlap: float = 0.0
     max_overlap_step: int = -1
+    energy_gain: float = 0.0
+    energy_gain_step: int = -1
 
     def __str__(self) -> str:
         nc = len(self.non_converged)
@@ -229,14 +243,18 @@ class RunSummary:
             head += (f"; WARNING: overlaps up to {100 * self.max_overlap:.3g} % of a radius "
                      f"(step {self.max_overlap_step}; above {100 * OVERLAP_WARN:g} %: lower "
                      f"dt, or check speeds, loads and masses)")
+        if self.energy_gain > ENERGY_WARN:
+            head += (f"; WARNING: the reactions added kinetic energy ({self.energy_gain:.3g} of "
+                     f"the free motion's, step {self.energy_gain_step}): they can only take it "
+                     f"away, the solve did not hold (lower tol or dt)")
         if self.interrupted:
             head += "; interrupted"
         return head
 
 
-def _check_physics(model, state, stats, planes) -> None:
+def _check_physics(model, state, stats, walls) -> None:
     """The checks of :mod:`engine.sanity` that stop a run: an overlap past
-    ``Options.max_overlap``, a sphere through a plane it interacts with."""
+    ``Options.max_overlap``, a sphere through a wall it interacts with."""
     limit = model.options.max_overlap
     if stats.max_overlap > limit:
         i, j = stats.overlap_pair
@@ -244,15 +262,16 @@ def _check_physics(model, state, stats, planes) -> None:
             f"step {state.step} (t = {state.time:.6g} s): bodies {i} and {j} overlap by "
             f"{100 * stats.max_overlap:.3g} % of a radius, past max_overlap = {limit:g}; "
             f"lower dt = {model.options.dt:g} s, or check speeds, loads and masses")
-    if planes.size:
-        b, p = through_planes(state.position, model.body_radius, model.body_group,
-                              model.sphere_ids, planes, model.pair_law, model.body_axis,
-                              model.body_dof)
+    if walls.size:
+        b, w, where = through_walls(state.position, model.body_radius, model.body_group,
+                                    model.sphere_ids, walls, model.pair_law, model.body_kind,
+                                    model.body_axis, model.body_height, model.body_caps,
+                                    model.body_dof)
         if b >= 0:
             raise SimulationError(
-                f"step {state.step} (t = {state.time:.6g} s): sphere {b} went through plane "
-                f"{p} (its centre is behind the plane by more than its radius); lower dt = "
-                f"{model.options.dt:g} s, or check the wall's drive and the loads")
+                f"step {state.step} (t = {state.time:.6g} s): sphere {b} "
+                f"{THROUGH[where].format(w=w)}; lower dt = {model.options.dt:g} s, or check "
+                f"the wall's drive and the loads")
 
 
 def _check_finite(model, state) -> None:
@@ -326,9 +345,8 @@ def run(model, state, steps: int, writers: Iterable = (), progress: bool = True)
     t0 = _time.perf_counter()
     total_it = 0
     undo = _Undo()
-    from .model import PLANE
-
-    planes = model.wall_ids[model.body_kind[model.wall_ids] == PLANE].astype(np.int64)
+    walls = model.wall_ids.astype(np.int64)
+    check_energy = energy_sources(model, state) is None
     try:
         for _ in range(int(steps)):
             if _stop.requested():        # also a request made before the run started
@@ -344,7 +362,11 @@ def run(model, state, steps: int, writers: Iterable = (), progress: bool = True)
             _check_finite(model, state)
             if stats.max_overlap > summary.max_overlap:
                 summary.max_overlap, summary.max_overlap_step = stats.max_overlap, state.step
-            _check_physics(model, state, stats, planes)
+            if check_energy and stats.energy_gain > 0.0:
+                rel = stats.energy_gain / max(stats.free_energy, 1e-300)
+                if rel > summary.energy_gain:
+                    summary.energy_gain, summary.energy_gain_step = rel, state.step
+            _check_physics(model, state, stats, walls)
             summary.steps += 1
             total_it += stats.iterations
             summary.max_residual = max(summary.max_residual, stats.residual)
@@ -381,6 +403,11 @@ def run(model, state, steps: int, writers: Iterable = (), progress: bool = True)
                       f"{summary.max_overlap_step}), above {100 * OVERLAP_WARN:g} %: lower dt "
                       f"= {model.options.dt:g} s, or check speeds, loads and masses",
                       PhysicsWarning, stacklevel=2)
+    if summary.energy_gain > ENERGY_WARN:
+        warnings.warn(f"the reactions added kinetic energy to the free motion "
+                      f"({summary.energy_gain:.3g} of it, step {summary.energy_gain_step}); "
+                      f"contacts and rigid links can only take it away: the solve did not "
+                      f"hold (lower tol or dt)", PhysicsWarning, stacklevel=2)
     if summary.non_converged:
         warnings.warn(str(summary), NonConvergenceWarning, stacklevel=2)
     elif progress:

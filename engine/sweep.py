@@ -218,30 +218,6 @@ def _paper_test(name):
     return experiment
 
 
-def _check_type(name, value, annotation) -> None:
-    """``value`` of the type a paper test's parameter ``name`` is annotated with (``int``,
-    ``float``, ``bool``, ``str``, or one of them ``| None``): a grid value that is not
-    would make the case fail on every attempt, or worse run with a string compared to a
-    number ("steps=abc" ran twice before it was refused)."""
-    ann = str(annotation).replace(" ", "")
-    kinds = set(ann.split("|"))
-    if value is None and "None" in kinds:
-        return
-    kinds.discard("None")
-    if len(kinds) != 1 or not kinds <= {"int", "float", "bool", "str"}:
-        return                                      # other annotations: not checked here
-    kind = kinds.pop()
-    is_bool = isinstance(value, bool)
-    ok = {"int": isinstance(value, int) and not is_bool,
-          "float": isinstance(value, (int, float)) and not is_bool
-          and math.isfinite(float(value)),
-          "bool": is_bool, "str": isinstance(value, str)}[kind]
-    if not ok:
-        what = {"int": "an integer", "float": "a finite number", "bool": "true or false",
-                "str": "a text"}[kind]
-        raise ValueError(f"{name} must be {what}, got {value!r}")
-
-
 def _check_paper_cases(name, cases, fixed) -> None:
     """Refuse, before anything runs, a case of a paper test with a parameter the test does
     not take, a wire it cannot build, a bad scale or solver options out of range (naming
@@ -250,13 +226,11 @@ def _check_paper_cases(name, cases, fixed) -> None:
     import inspect
 
     from . import experiments
-    from .experiments.common import check_scale, solver_choice
-    from .model import Options
+    from .experiments.common import check_scale
+    from .experiments.params import check_args
 
     sig = inspect.signature(getattr(experiments, name)).parameters
-    own = set(sig)
-    allowed = (own - {"wire_law"}) | {"k", "history_dir"}      # the law comes from wire, k
-    solver = [n for n in Options.model_fields if n in own]     # dt, theta, tol, max_iter ...
+    allowed = (set(sig) - {"wire_law"}) | {"k", "history_dir"}  # the law comes from wire, k
     for c in cases:
         params = dict(fixed, **c)
         bad = sorted(set(params) - allowed)
@@ -264,17 +238,12 @@ def _check_paper_cases(name, cases, fixed) -> None:
             raise ValueError(f"{name} takes no parameter {', '.join(map(repr, bad))}; its "
                              f"parameters are {', '.join(sorted(allowed))}")
         try:
-            for n, v in c.items():
-                if n in sig and n != "wire":        # (the sweep's wire is a law's name)
-                    _check_type(n, v, sig[n].annotation)
             _law(params.get("wire", "elastic"), params.get("k"))
             check_scale(params.get("scale", sig["scale"].default))
-            opts = {n: params.get(n, sig[n].default) for n in solver}
-            opts["anderson"], opts["hot_sweeps"] = solver_choice(opts["anderson"],
-                                                                 opts["hot_sweeps"])
-            Options(**opts, alert=0.0, skin=1.0)      # alert, skin: placeholders, not checked
+            check_args(name, {n: params.get(n, p.default) for n, p in sig.items()
+                              if n != "wire"})          # (the sweep's wire is a law's name)
         except ValueError as e:
-            raise ValueError(f"{name}, case {c}: {e}") from None
+            raise ValueError(f"{name}, case {c}: {str(e).removeprefix(name + ': ')}") from None
 
 
 #: The paper's tests by name, as sweep experiments (JSON-able parameters in, scalars out).

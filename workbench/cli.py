@@ -45,24 +45,18 @@ import warnings
 from pathlib import Path
 from typing import Literal, Optional
 
-from pydantic import BaseModel, ConfigDict, Field, ValidationError, model_validator
+from pydantic import BaseModel, Field, ValidationError, model_validator
 
-from engine.checks import NumbersOnly
-from engine.model import MAX_ITER_LIMIT
+from engine.experiments.params import (PARAMS as _PARAMS, SEED_LIMIT, STEP_LIMIT,
+                                       BoxParams,  # noqa: F401
+                                       CylinderParams, DepositParams, SlopeParams,
+                                       SolverParams, Strict as _Strict, TriaxialParams)
 
 from .meshes import sample_cylinder  # noqa: F401  (numpy only; it lived here before)
 from .render import CAMERAS, PRESETS  # noqa: E402  (no PyVista import: it is lazy there)
 
 
 # ---------------------------------------------------------------- configuration files
-
-#: Largest step count of a run file's integer parameters (steps, frames, intervals).
-STEP_LIMIT = 10**9
-
-
-class _Strict(NumbersOnly):
-    model_config = ConfigDict(extra="forbid")
-
 
 class WireConfig(_Strict):
     law: Literal["elastic", "rigid", "none"] = "elastic"
@@ -79,115 +73,6 @@ class WireConfig(_Strict):
         return self
 
 
-class SolverParams(_Strict):
-    dt: float = Field(5e-5, gt=0, le=1e-2, description="time step [s]")
-    theta: float = Field(0.5, ge=0.5, le=1.0)
-    tol: float = Field(3e-4, gt=0, lt=1)
-    max_iter: int = Field(1000, ge=1, le=MAX_ITER_LIMIT)
-    relax: float = Field(1.0, gt=0, lt=2,
-                         description="NLGS relaxation (> 1: over-relaxation, needs anderson "
-                                     "= 0 and threads = 1)")
-    anderson: int = Field(0, ge=0, le=16,
-                          description="NLGS Anderson acceleration depth (0: none)")
-    threads: int = Field(1, ge=1, le=64,
-                         description="NLGS threads (2 pays on tens of thousands of contacts)")
-    hot_sweeps: int | None = Field(None, ge=0, le=8,
-                                   description="re-sweeps of the contacts that changed most "
-                                               "after each NLGS sweep (needs anderson = 0; "
-                                               "default 2, 0 when anderson > 0)")
-    mu: float = Field(0.5, ge=0, le=10)
-    mu_wire: float = Field(0.3, ge=0, le=10)
-    max_nonconverged: float = Field(0.25, ge=0, le=1)
-    record_every: int = Field(10, ge=1, le=STEP_LIMIT)
-    frames: int = Field(100, ge=0, le=STEP_LIMIT)
-
-    @model_validator(mode="after")
-    def _hot_alone(self):
-        from engine.model import solver_conflict
-
-        problem = solver_conflict(self.hot_sweeps, self.anderson, self.relax, self.threads)
-        if problem:
-            raise ValueError(problem)
-        return self
-
-
-class TriaxialParams(SolverParams):
-    pressure: float = Field(15e3, gt=0, le=1e9, description="[Pa]")
-    axial_strain: float = Field(0.05, gt=0, le=0.5)
-    strain_rate: Optional[float] = Field(None, gt=0, description="[1/s]")
-    target_I: float = Field(5e-4, gt=0, le=0.1)
-    allow_dynamic: bool = False
-    iso_max_steps: int = Field(4000, ge=1, le=STEP_LIMIT)
-    iso_tol: float = Field(0.02, gt=0, lt=1,
-                           description="the isotropic stage ends when the stresses are "
-                                       "within this fraction of the pressure ...")
-    iso_hold: int = Field(5, ge=1, le=STEP_LIMIT, description="... for this many checks in a row")
-    ramp_steps: int = Field(400, ge=0, le=STEP_LIMIT, description="steps over which the pressure is raised")
-
-
-class CylinderParams(TriaxialParams):
-    axial_strain: float = Field(0.1, gt=0, le=0.5)
-    mu_wall: float = Field(0.5, ge=0, le=10, description="friction of the cylinder and plates")
-    compaction_mu: Optional[float] = Field(None, ge=0.1, le=10,
-                                           description="friction of the isotropic stage "
-                                                       "(None: the test's own)")
-    confine_every: int = Field(10, ge=1, le=STEP_LIMIT, description="steps between confinement updates")
-    torus_strains: list[float] = [0.02, 0.05, 0.1]
-
-
-class BoxParams(TriaxialParams):
-    mu_wall: float = Field(0.0, ge=0, le=10, description="friction of the six walls")
-    bead_radius: Optional[float] = Field(None, gt=0, description="[m]")
-    compaction_mu: Optional[float] = Field(None, ge=0, le=10,
-                                           description="friction of the isotropic stage "
-                                                       "(None: the test's own)")
-    wall_mass: Optional[float] = Field(None, gt=0,
-                                       description="[kg] (None: 0.2 x the sample's mass)")
-    check_every: int = Field(10, ge=1, le=STEP_LIMIT, description="steps between isotropic-stage checks")
-
-
-CHECKPOINT_HELP = ("[steps] a checkpoint (RUN.resume.h5) this often, and when Ctrl-C "
-                   "stops the run (0: only then)")
-RESUME_HELP = "go on from the checkpoint a stopped or killed run of the same file left"
-
-
-class SlopeParams(SolverParams):
-    tol: float = Field(1e-4, gt=0, lt=1)
-    wire_density: Optional[float] = Field(None, gt=0, description="[m/m³]")
-    steps: int = Field(4000, ge=1, le=STEP_LIMIT)
-    ke_fraction: float = Field(1e-4, gt=0, lt=1)
-    rubber_radius: float = Field(0.3e-3, gt=0, le=0.1)
-    floor_extent: float = Field(5.0, gt=0, le=100)
-    mu_floor: float = Field(0.8, ge=0, le=10)
-    record_every: int = Field(20, ge=1, le=STEP_LIMIT)
-    frames: int = Field(200, ge=0, le=STEP_LIMIT)
-    checkpoint_every: int = Field(0, ge=0, le=STEP_LIMIT, description=CHECKPOINT_HELP)
-    resume: bool = Field(False, description=RESUME_HELP)
-    fit_degree: Optional[int] = Field(None, ge=1, le=11, description=(
-        "degree of the heap's height regression whose steepest slope is the max slope "
-        "(None: 1 for sand, 3 with a wire; the paper's TexSol(2): 8)"))
-
-
-class DepositParams(SolverParams):
-    dt: float = Field(1e-4, gt=0, le=1e-2, description="time step [s]")
-    tol: float = Field(1e-4, gt=0, lt=1)
-    sample: Literal["slope", "cylinder", "box"] = Field(
-        "slope", description="the paper's sample relaxed in its mould")
-    wire_density: Optional[float] = Field(None, gt=0,
-                                          description="[m/m³] (None: the sample's own)")
-    steps: int = Field(6000, ge=1, le=STEP_LIMIT)
-    ke_fraction: float = Field(1e-4, gt=0, lt=1)
-    mu_wall: float = Field(0.5, ge=0, le=10, description="friction of the mould")
-    record_every: int = Field(20, ge=1, le=STEP_LIMIT)
-    frames: int = Field(200, ge=0, le=STEP_LIMIT)
-    checkpoint_every: int = Field(0, ge=0, le=STEP_LIMIT, description=CHECKPOINT_HELP)
-    resume: bool = Field(False, description=RESUME_HELP)
-
-
-_PARAMS = {"cylinder_triaxial": CylinderParams, "box_triaxial": BoxParams,
-           "slope_deposit": SlopeParams, "gravity_deposit": DepositParams}
-
-
 def _default_scale(test: str) -> float:
     """The ``scale`` default of the test function (``engine.experiments``)."""
     import inspect
@@ -201,7 +86,7 @@ class RunConfig(_Strict):
     scale: Optional[float] = Field(None, gt=0, le=1.0,
                                    description="sample size (1: the paper's); default: the "
                                                "test function's own")
-    seed: int = Field(0, ge=0, le=2**63 - 1)
+    seed: int = Field(0, ge=0, le=SEED_LIMIT)
     parameters: dict = {}
     wire: WireConfig = WireConfig()
 

@@ -484,16 +484,6 @@ class RestCheckpoint:
                 os.remove(p)
 
 
-def check_rest_run(steps, ke_fraction, record_every) -> None:
-    """The arguments of a run to rest (:func:`run_to_rest`), checked up front."""
-    if not 0 < float(ke_fraction) < 1:
-        raise ValueError(f"ke_fraction must be in (0, 1), got {ke_fraction!r}")
-    if int(steps) < 1:
-        raise ValueError(f"steps must be >= 1, got {steps!r}")
-    if int(record_every) < 1:
-        raise ValueError(f"record_every must be >= 1, got {record_every!r}")
-
-
 def wire_histograms(chains) -> dict:
     """Direction histograms of the wire elements in the three planes, 18 bins (Fig. 8-9)."""
     from ..analysis.wire import direction_histogram

@@ -13,7 +13,8 @@ from ..analysis.wire import wire_chains
 from ..prep import Box, Cylinder, paper_sample
 from ..prep.relax import kinetic_energy
 from ..scene import Scene
-from .common import (RestCheckpoint, RestResult, check_bool, check_rest_run, check_scale,
+from .params import check_args
+from .common import (RestCheckpoint, RestResult, check_bool, check_scale,
                      deposit_laws, finish, rest_recording, run_meta, rest_summary, run_identity,
                      run_to_rest, solver_choice, wire_before_after, wire_law_or_default)
 
@@ -109,16 +110,10 @@ def gravity_deposit(scale: float = 0.05, *, sample: str = "slope", wire: bool = 
     one left by the same call (a run killed or stopped), bit for bit as if it had never
     stopped, and starts afresh, with a warning, from a checkpoint of other parameters.
     """
+    check_args("gravity_deposit", locals())
     identity = run_identity(dict(locals(), test="gravity_deposit"))
     scale = check_scale(scale)
-    if sample not in SAMPLES:
-        raise ValueError(f"sample must be one of {', '.join(map(repr, SAMPLES))}, got {sample!r}")
     anderson, hot_sweeps = solver_choice(anderson, hot_sweeps)
-    for name, v in (("mu", mu), ("mu_wall", mu_wall), ("mu_wire", mu_wire)):
-        if (isinstance(v, bool) or not isinstance(v, (int, float, np.number))
-                or not 0 <= v < math.inf):
-            raise ValueError(f"{name} must be a number >= 0 (Coulomb friction), got {v!r}")
-    check_rest_run(steps, ke_fraction, record_every)
     ckpt = RestCheckpoint(history, checkpoint_every, record_every, identity)
     resume = check_bool("resume", resume)
     kw = dict(wire=wire, seed=seed)

@@ -13,7 +13,8 @@ from ..analysis.wire import wire_chains
 from ..prep import slope_sample
 from ..prep.relax import kinetic_energy
 from ..scene import Scene
-from .common import (RestCheckpoint, RestResult, check_bool, check_positive, check_rest_run,
+from .params import check_args
+from .common import (RestCheckpoint, RestResult, check_bool,
                      check_scale, deposit_laws, finish, rest_recording, rest_summary, run_meta,
                      run_identity, run_to_rest, solver_choice, wire_before_after,
                      wire_law_or_default)
@@ -119,12 +120,10 @@ def slope_deposit(scale: float = 0.02, *, wire: bool = True, wire_density: float
     fits sand with a line, TexSol(1) with a cubic and TexSol(2) with the 8th degree, so a
     higher degree finds a steeper slope on the same heap (docs/paper.md, Fig. 10).
     """
+    check_args("slope_deposit", locals())
     identity = run_identity(dict(locals(), test="slope_deposit"))
     scale = check_scale(scale)
     anderson, hot_sweeps = solver_choice(anderson, hot_sweeps)
-    check_positive("rubber_radius", rubber_radius, "[m]")
-    check_positive("floor_extent", floor_extent, "[-]")
-    check_rest_run(steps, ke_fraction, record_every)
     ckpt = RestCheckpoint(history, checkpoint_every, record_every, identity)
     resume = check_bool("resume", resume)
     fit_degree = check_fit_degree(fit_degree, wire, PROFILE_BINS)

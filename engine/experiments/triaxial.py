@@ -42,6 +42,7 @@ from ..analysis import (best_fit_strain, equivalent_stress, macro_stiffness, pri
 from ..drivers import Confinement
 from ..prep import Box, Cylinder, box_sample, cylinder_sample
 from ..scene import Scene
+from .params import check_args
 from .common import (ConfinementError, Recorder, Stages, TestResult, check_positive, check_scale,
                      choose_rate, finish, history_writer, run_meta, solver_choice,
                      wire_law_or_default)
@@ -116,17 +117,6 @@ RADIUS_RUNAWAY = 1.5
 CYLINDER_COMPACTION_MU_MIN = 0.1
 
 
-def _common_checks(pressure, max_nonconverged, target_I, record_every):
-    p = check_positive("pressure", pressure, "[Pa]")
-    if not 0.0 <= float(max_nonconverged) <= 1.0:
-        raise ValueError(f"max_nonconverged must be a share in [0, 1], got {max_nonconverged!r}")
-    if not 0 < float(target_I) <= 0.1:
-        raise ValueError(f"target_I must be in (0, 0.1], got {target_I!r}")
-    if int(record_every) < 1:
-        raise ValueError(f"record_every must be >= 1, got {record_every!r}")
-    return p
-
-
 def _stage_arrays(rec, stage_of):
     st = np.asarray(stage_of)
     return {k: rec.array(k)[st == 1] for k in rec.rows}, {k: rec.array(k)[st == 0] for k in rec.rows}
@@ -166,10 +156,11 @@ def cylinder_triaxial(scale: float = 0.05, *, pressure: float = 15e3, wire: bool
     Raises ValueError for bad input (naming it), ConvergenceError when more than
     ``max_nonconverged`` of the steps hit ``max_iter``.
     """
+    check_args("cylinder_triaxial", locals())
     scale = check_scale(scale)
     anderson, hot_sweeps = solver_choice(anderson, hot_sweeps)
-    p = _common_checks(pressure, max_nonconverged, target_I, record_every)
-    eps_max = check_positive("axial_strain", axial_strain, "[-]")
+    p = float(pressure)
+    eps_max = float(axial_strain)
     compaction_mu = _compaction_mu(compaction_mu, CYLINDER_COMPACTION_MU_MIN,
                                    " (at 0 the free-surface confinement let the "
                                    "frictionless grains out)")
@@ -447,10 +438,11 @@ def box_triaxial(scale: float = 0.05, *, pressure: float = 15e3, wire: bool = Tr
     directions (Fig. 11), and the best-fit strains (Eq. 19) of the sand, the wire and all
     the particles (Fig. 12).
     """
+    check_args("box_triaxial", locals())
     scale = check_scale(scale)
     anderson, hot_sweeps = solver_choice(anderson, hot_sweeps)
-    p = _common_checks(pressure, max_nonconverged, target_I, record_every)
-    eps_max = check_positive("axial_strain", axial_strain, "[-]")
+    p = float(pressure)
+    eps_max = float(axial_strain)
     compaction_mu = _compaction_mu(compaction_mu)
     law = wire_law_or_default(wire_law) if wire else None
     sample = box_sample(scale, wire=wire, bead_radius=bead_radius, seed=seed)

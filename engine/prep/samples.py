@@ -152,6 +152,12 @@ def _build(name, container, wire_region, radii, *, wire, wire_density, bead_radi
     return s
 
 
+#: Fewest sand grains of a paper sample: below, the builders failed on the wire ("cannot
+#: fit") or the deposit ("placed 2 of 6 grains") instead of saying the scale is too small
+#: (issue 33); at 10 grains every sample builds, with and without a wire (seeds 0-3).
+MIN_GRAINS = 10
+
+
 def _paper(name, container, wire_region, scale, *, wire, wire_density, bead_radius, seed):
     """The paper's grains for ``name`` at ``scale`` in ``container``, and the wire."""
     p = PAPER[name]
@@ -163,7 +169,12 @@ def _paper(name, container, wire_region, scale, *, wire, wire_density, bead_radi
             unit = "[m/m³]; None: the paper's" if key == "wire_density" else "[m]"
             raise ValueError(f"{key} must be a number > 0 {unit} (wire=False for sand "
                              f"only), got {v!r}")
-    n = max(1, int(round(p["n_sand"] * scale)))
+    n = int(round(p["n_sand"] * scale))
+    if n < MIN_GRAINS:
+        least = math.ceil(MIN_GRAINS / p["n_sand"] * 1e4) / 1e4
+        raise ValueError(f"scale {scale:g} gives a {name} sample of {n} grains (the paper's "
+                         f"{p['n_sand']} x scale), fewer than {MIN_GRAINS}: use scale >= "
+                         f"{least:g}")
     radii = granulometry.uniform(p["d_min"], p["d_max"], n=n, seed=seed + 2)
     return _build(name, container, wire_region, radii, wire=wire,
                   wire_density=p["wire_density"] if wire_density is None else wire_density,

@@ -365,6 +365,57 @@ def test_strings_and_bools_for_numbers_and_numbers_for_bools_are_refused_by_name
         gravity_deposit("0.05")
 
 
+def test_the_python_tests_refuse_knobs_out_of_range_before_any_work(tmp_path, monkeypatch):
+    """Item 3 in Python: the test functions check their arguments against the same models
+    as run files and sweep grids (engine.experiments.params), before a sample is built (the
+    builders are replaced by a function that fails the test if reached), and name each
+    field on one line."""
+    from engine import experiments
+    from engine.experiments import deposit, slope, triaxial
+
+    def never(*a, **k):
+        raise AssertionError("a sample was built before the arguments were checked")
+
+    for mod, name in ((triaxial, "cylinder_sample"), (triaxial, "box_sample"),
+                      (slope, "slope_sample"), (deposit, "paper_sample")):
+        monkeypatch.setattr(mod, name, never)
+    h = str(tmp_path / "h.h5")
+    cases = [(experiments.cylinder_triaxial, dict(record_every=10**12),
+              r"cylinder_triaxial: record_every = 1000000000000: must be an integer in "
+              r"\[1, 1000000000\]"),
+             (experiments.cylinder_triaxial, dict(pressure=2e9, seed=2**64),
+              r"pressure = 2000000000.0: must be a number in \(0, 1e\+09\]; seed = "
+              r"18446744073709551616: must be an integer in \[0, 2\*\*63 - 1\]"),
+             (experiments.box_triaxial, dict(frames=-1, strain_rate=1e9),
+              r"box_triaxial: .*frames = -1: must be an integer in \[0, 1000000000\]"),
+             (experiments.box_triaxial, dict(iso_hold=2.5), "iso_hold = 2.5: must be an integer"),
+             (experiments.slope_deposit, dict(steps=2**63), "steps = 9223372036854775808"),
+             (experiments.slope_deposit, dict(rubber_radius=1.0), r"rubber_radius = 1.0: "
+                                                                   r"must be a number in \(0, 0.1\]"),
+             (experiments.gravity_deposit, dict(mu=float("inf")), "mu = inf: must be a number"),
+             (experiments.gravity_deposit, dict(sample="sphere"), "sample = 'sphere': must be "
+                                                                  "one of 'slope'"),
+             (experiments.gravity_deposit, dict(wire=1), "wire = 1: must be true or false"),
+             (experiments.gravity_deposit, dict(tol=1.5, max_iter=0), "tol = 1.5.*max_iter = 0")]
+    for fn, kw, says in cases:
+        with pytest.raises(ValueError, match=says) as e:
+            fn(0.05, history=h, progress=False, **kw)
+        assert "\n" not in str(e.value), str(e.value)
+    assert not os.path.exists(h)
+
+
+def test_a_tiny_scale_is_reported_as_too_few_grains():
+    """Item 8: scale 1e-4 was reported as a wire that cannot fit (or a deposit that placed 2
+    of 6 grains); it is a sample of 1-3 grains.  The smallest scale named builds."""
+    from engine.prep import paper_sample
+
+    for name, least in (("cylinder", 0.0017), ("box", 0.0016), ("slope", 0.0004)):
+        with pytest.raises(ValueError, match=rf"scale 0.0001 gives a {name} sample of \d "
+                                             rf"grains .*fewer than 10: use scale >= {least}$"):
+            paper_sample(name, 1e-4)
+        assert paper_sample(name, least, wire=True).n_beads > 0
+
+
 # -- 5. physics outside its validity --------------------------------------------------------------
 def _lid_scene(speed, **compile_kw):
     from engine import Scene, laws
@@ -409,6 +460,69 @@ def test_overlaps_are_reported_and_past_the_users_bound_stop_the_run(tmp_path):
     assert summary.max_overlap < 0.01 and "WARNING" not in str(summary)
 
 
+def _wire_box(law):
+    from engine import Scene, laws
+    from engine.prep import paper_sample
+
+    smp = paper_sample("box", 0.03, wire=True, seed=0)
+    sc = Scene(gravity=(0, 0, -9.81))
+    smp.add_to(sc, wire_law=law)
+    sc.add_box(smp.container.lo, smp.container.hi, group="wall")
+    for a, b, mu in (("sand", "sand", 0.5), ("sand", "wall", 0.5), ("wire", "sand", 0.3),
+                     ("wire", "wire", 0.3), ("wire", "wall", 0.3)):
+        sc.interact(a, b, laws.Coulomb(mu=mu))
+    return sc.compile(dt=5e-5, tol=1e-4, max_iter=2000)
+
+
+def test_reactions_never_add_kinetic_energy_and_a_step_that_does_is_reported(tmp_path,
+                                                                             monkeypatch):
+    """The work of a step's reactions on the free motion, R . (v+ + v_free)/2 (each step's
+    StepStats.energy_gain, records/energy_gain), is <= 0 for frictional contacts and rigid
+    links whatever the tolerance (sanity.reaction_gain's proof): checked on every step of
+    a falling pile at tol 1e-2 and 1e-8 and of a sand + rigid-wire box.  A prestrained
+    elastic wire releases stored energy, so such a scene is not checked.  A solve made to
+    add energy (one grain given 1 m/s sideways after the real solve) is reported by the summary and
+    a PhysicsWarning with the step."""
+    from engine import laws, sanity
+    from tests.helpers import box_pile
+
+    for tol in (1e-2, 1e-8):
+        model, state, *_ = box_pile(300, 0.02, dt=2e-4, tol=tol, max_iter=1000)
+        with io.History(tmp_path / f"p{tol}.h5", frames=0) as h:
+            summary = run(model, state, 300, writers=[h], progress=False)
+        d = io.read_history(tmp_path / f"p{tol}.h5", frames=False)
+        assert d.units["energy_gain"] == "J" and (d.energy_gain <= 0).all()
+        assert d.energy_gain.min() < -1e-9                # the grains hit the floor
+        assert summary.energy_gain == 0.0 and "kinetic energy" not in str(summary)
+    model, state = _wire_box(laws.RigidWire())
+    assert sanity.energy_sources(model, state) is None
+    gains = [sys.modules["engine.step"].step(model, state).energy_gain for _ in range(300)]
+    assert max(gains) <= 0.0 and min(gains) < 0.0
+    model, state = _wire_box(laws.ElasticWire(stiffness=1.0, prestrain=0.05))
+    assert sanity.energy_sources(model, state) == "elastic links"
+    assert sanity.energy_sources(*_wire_box(laws.RigidWire(prestrain=0.05))) == \
+        "stretched rigid links"
+    gains = [sys.modules["engine.step"].step(model, state).energy_gain for _ in range(100)]
+    assert max(gains) > 0.0                               # the prestrain's energy, released
+
+    stepmod = sys.modules["engine.step"]
+    real = stepmod.solve
+
+    def leaky(model, state, **kw):
+        out = real(model, state, **kw)
+        if state.step == 149:                             # the solve of step 150
+            state.vel6[model.sphere_ids[0], 0] += 1.0
+        return out
+
+    monkeypatch.setattr(stepmod, "solve", leaky)
+    model, state, *_ = box_pile(300, 0.02, dt=2e-4, tol=1e-4, max_iter=1000)
+    with pytest.warns(sanity.PhysicsWarning, match=r"reactions added kinetic energy .*step 150"):
+        warnings.filterwarnings("ignore", "overlaps up to", sanity.PhysicsWarning)  # the kick's
+        summary = run(model, state, 200, progress=False)
+    assert summary.energy_gain_step == 150 and summary.energy_gain > sanity.ENERGY_WARN
+    assert "WARNING: the reactions added kinetic energy" in str(summary)
+
+
 def test_a_lid_driven_through_a_ball_stops_the_run_naming_it():
     """A lid driven at 1000 m/s onto a 1 mm ball: the overlap stops the run at step 1; with
     the overlap bound lifted, the ball found behind a plane (the lid pushed it through the
@@ -421,6 +535,46 @@ def test_a_lid_driven_through_a_ball_stops_the_run_naming_it():
     model, state = _lid_scene(1000.0, max_overlap=1e3)
     with pytest.raises(SimulationError, match=r"sphere 0 went through plane [12] "):
         run(model, state, 20, progress=False)
+
+
+def test_a_ball_pushed_through_a_cylinder_stops_the_run_naming_the_wall():
+    """A plate driven at 1000 m/s pushes a ball inside a closed-bottom cylinder down through
+    its cap, or sideways through its side wall (overlap bound lifted so the crossing itself
+    is what stops the run)."""
+    from engine import Scene, laws
+    from engine.step import SimulationError
+
+    def scene(normal, velocity):
+        s = Scene(gravity=(0, 0, -9.81))
+        s.add_spheres([[0, 0, 2e-3]], 1e-3, density=2650.0)
+        s.add_cylinder(radius=4e-3, height=10e-3, group="mould", bottom=True)
+        plate = s.add_plane(point=(0, 0, 2e-3) - 2e-3 * np.asarray(normal), normal=normal,
+                            group="plate")
+        s.drive(plate, velocity=velocity)
+        for g in ("mould", "plate"):
+            s.interact("sand", g, laws.Coulomb(mu=0.5))
+        return s.compile(dt=1e-4, max_overlap=1e3)
+
+    for normal, velocity, says in (((0, 0, -1), (0, 0, -1000), "the bottom cap of cylinder 1"),
+                                   ((-1, 0, 0), (-1000, 0, 0), "sphere 0 is outside cylinder 1 "
+                                                               r"\(between its ends")):
+        model, state = scene(normal, velocity)
+        with pytest.raises(SimulationError, match=r"step 1 .*" + says):
+            run(model, state, 20, progress=False)
+
+
+def test_a_prestrain_that_collapses_the_wire_is_refused():
+    """prestrain = 1e6 made the links' reference length g(0)/(1 + 1e6) and pulled the beads
+    onto one another; the laws take (-1, 1] (at 1: half the initial length)."""
+    from engine import laws
+
+    for cls, kw in ((laws.ElasticWire, dict(stiffness=1.0)), (laws.RigidWire, {}),
+                    (laws.ElasticRod, dict(stiffness=1.0)), (laws.RigidRod, {}),
+                    (laws.BrittleElasticWire, dict(stiffness=1.0, max_tension=1.0))):
+        with pytest.raises(ValueError, match=r"prestrain = 1000000.0: must be a number in "
+                                             r"\(-1, 1\]"):
+            cls(prestrain=1e6, **kw)
+        assert cls(prestrain=1.0, **kw).prestrain == 1.0
 
 
 def test_densities_and_masses_whose_products_overflow_are_refused():
@@ -438,5 +592,6 @@ def test_a_history_written_before_the_overlap_record_reads_it_as_nan(tmp_path):
     _history_run(path, steps=20)
     with h5py.File(path, "a") as f:
         del f["records/max_overlap"]
+        del f["records/energy_gain"]
     d = io.read_history(path, frames=False)
-    assert d.n_records == 20 and np.isnan(d.max_overlap).all()
+    assert d.n_records == 20 and np.isnan(d.max_overlap).all() and np.isnan(d.energy_gain).all()

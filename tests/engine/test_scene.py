@@ -80,7 +80,7 @@ def _wire_law_in_interact():
 BAD = {
     "wire stiffness zero": (lambda: laws.ElasticWire(stiffness=0.0), r"ElasticWire: stiffness = 0.0: must be a finite number > 0$"),
     "wire stiffness negative": (lambda: laws.ElasticRod(stiffness=-1.0), r"ElasticRod: stiffness = -1.0: must be a finite number > 0$"),
-    "wire prestrain -1": (lambda: laws.ElasticWire(stiffness=1.0, prestrain=-1.0), r"prestrain = -1.0: must be a finite number > -1$"),
+    "wire prestrain -1": (lambda: laws.ElasticWire(stiffness=1.0, prestrain=-1.0), r"prestrain = -1.0: must be a number in \(-1, 1\]$"),
     "wire max tension zero": (lambda: laws.BrittleElasticWire(stiffness=1.0, max_tension=0.0), r"max_tension = 0.0: must be a finite number > 0$"),
     "wire one bead": (_wire(centers=[[0, 0, 0]]), r"at least 2 beads, got 1"),
     "wire bead overlap": (_wire(centers=[[0, 0, 0], [2.2e-3, 0, 0], [3.5e-3, 0, 0]]),

@@ -153,7 +153,7 @@ def test_run_help_lists_every_parameter_with_its_range(capsys):
                  "law: default 'elastic'; one of 'elastic', 'rigid', 'none'",
                  "[parameters] of slope_deposit:", "theta: default 0.5; a number in [0.5, 1]",
                  "pressure: default 15000.0; a number in (0, 1e+09] — [Pa]",
-                 "strain_rate: default None; a number > 0 — [1/s]"):
+                 "strain_rate: default None; a number in (0, 1000] — [1/s]"):
         assert line in out, line
     for name in cli.CylinderParams.model_fields:
         assert f"  {name}: " in out

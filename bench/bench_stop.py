@@ -13,7 +13,7 @@ Writes bench/results/stop-<YYYYmmdd-HHMM>.json.
    falling (it reaches the floor), a cubic lattice of 2 mm pitch settling on a floor at the default tol 1e-4,
    and the same at tol 1e-6 (the piles measured from step 50 on, loaded).  Also the same runs
    without :mod:`engine.sanity`'s per-step checks (the overlap pass over the contacts, the
-   spheres behind planes): ``checks_ratio``.  The ratio is the figure: the yardstick is the same run without it.
+   spheres through walls, the reactions' kinetic-energy gain): ``checks_ratio``.  The ratio is the figure: the yardstick is the same run without it.
 2. ``latency``: a child process in a step that cannot converge (tol 1e-300, max_iter 10^9)
    gets SIGTERM 2 s into it; the time from the signal to the run's return (measured in the
    child on the system-wide monotonic clock), median over repeats.
@@ -53,6 +53,29 @@ def lattice(n, spacing, **opt):
     return s.compile(dt=1e-4, **opt)
 
 
+def checks_alone(model, state, repeats: int = 200) -> float:
+    """Seconds per step of engine.sanity's three per-step checks alone, on ``state`` (its
+    last step's contacts and free velocities), minimum of ``repeats`` calls: the run-level
+    ratio is within the run-to-run noise, this is the cost itself."""
+    from engine import sanity
+
+    c = state.contacts_buf
+    free = state.__dict__["_free_vel"]
+    walls = model.wall_ids.astype(np.int64)
+    best = np.inf
+    for _ in range(repeats):
+        t = time.perf_counter()
+        sanity.max_overlap(c.count, c.gap, c.ri, c.rj, c.i, model.body_dof)
+        sanity.through_walls(state.position, model.body_radius, model.body_group,
+                             model.sphere_ids, walls, model.pair_law, model.body_kind,
+                             model.body_axis, model.body_height, model.body_caps,
+                             model.body_dof)
+        sanity.reaction_gain(state.vel6, free, model.body_mass, model.body_inertia,
+                             model.sphere_ids, model.body_dof)
+        best = min(best, time.perf_counter() - t)
+    return best
+
+
 def overhead(quick: bool) -> list:
     from engine import run
 
@@ -67,7 +90,7 @@ def overhead(quick: bool) -> list:
         run(model, state0, 3 if "cloud" in name else 50, progress=False)   # loaded piles
         times = {"with undo": [], "without": [], "without checks": []}
         keep = step_mod._Undo.__dict__["needed"]
-        checks = step_mod._check_physics, step_mod.max_overlap
+        checks = step_mod._check_physics, step_mod.max_overlap, step_mod.reaction_gain
         for rep in range(2 if quick else 5):
             for mode in times:
                 if mode == "without":
@@ -75,20 +98,24 @@ def overhead(quick: bool) -> list:
                 if mode == "without checks":     # engine.sanity's per-step checks off
                     step_mod._check_physics = lambda *a: None
                     step_mod.max_overlap = lambda *a: (0.0, -1)
+                    step_mod.reaction_gain = lambda *a: (0.0, 0.0)
                 s = copy.deepcopy(state0)
                 t = time.perf_counter()
                 summary = run(model, s, steps, progress=False)
                 times[mode].append((time.perf_counter() - t) / steps)
                 step_mod._Undo.needed = keep
-                step_mod._check_physics, step_mod.max_overlap = checks
+                step_mod._check_physics, step_mod.max_overlap, step_mod.reaction_gain = checks
         a, b, c = (min(times[k]) for k in times)
+        alone = checks_alone(model, s)
         row = dict(scene=name, bodies=model.n_bodies, steps=steps,
                    sweeps_per_step=summary.mean_iterations, contacts=summary.max_contacts,
                    step_s_with_undo=a, step_s_without=b, ratio=a / b,
-                   step_s_without_checks=c, checks_ratio=a / c)
+                   step_s_without_checks=c, checks_ratio=a / c,
+                   checks_alone_s=alone, checks_alone_share=alone / a)
         print(f"  {name:34s} {a * 1e3:8.3f} ms/step with the undo, {b * 1e3:8.3f} without: "
               f"x{a / b:.3f}; without the sanity checks {c * 1e3:8.3f}: x{a / c:.3f} "
-              f"({summary.mean_iterations:.0f} sweeps, {summary.max_contacts} contacts)")
+              f"({summary.mean_iterations:.0f} sweeps, {summary.max_contacts} contacts); "
+              f"the checks timed alone {alone * 1e6:.1f} us/step ({100 * alone / a:.2f} %)")
         out.append(row)
     return out
 

@@ -106,7 +106,7 @@ def through_walls(pos, radius, group, sphere_ids, walls, pair_law, kind, axis, h
     return -1, -1, 0
 
 
-@njit(cache=True)
+@njit(cache=True, fastmath=True)   # a diagnostic sum: reassociation is fine, 2x faster
 def reaction_gain(vel6, free, mass, inertia, sphere_ids, dof):
     """(kinetic energy of the free spheres at the end of the step minus that of their free
     motion, the latter) [J].

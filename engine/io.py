@@ -56,7 +56,15 @@ class _BadArgument(ValueError):
     """A bad argument of a reading function (not a problem of the file)."""
 
 
-class WriteFailed(OSError):
+class FileProblem(OSError):
+    """An OSError whose ``str()`` is one line: ``FILE: what happened`` (the base of
+    :class:`WriteFailed` and :class:`RunLocked`, which ``nscd`` tells apart: exit 1 and 2)."""
+
+    def __str__(self) -> str:
+        return f"{self.filename}: {self.strerror}"
+
+
+class WriteFailed(FileProblem):
     """A file could not be written: a full disk (``errno.ENOSPC``), a quota, an I/O error.
 
     Raised by :class:`History` (which then stops writing: the file keeps, marked complete,
@@ -65,9 +73,6 @@ class WriteFailed(OSError):
 
     def __init__(self, path, errno_: int | None, what: str):
         super().__init__(errno_, what, os.fspath(path))
-
-    def __str__(self) -> str:
-        return f"{self.filename}: {self.strerror}"
 
 
 def _errno_of(e: BaseException) -> int | None:
@@ -159,11 +164,8 @@ class _Headroom:
                 pass
 
 
-class RunLocked(OSError):
+class RunLocked(FileProblem):
     """Another process is writing this history (its lock, ``.NAME.lock``, is held)."""
-
-    def __str__(self) -> str:
-        return f"{self.filename}: {self.strerror}"
 
 
 class _Lock:

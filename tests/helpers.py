@@ -181,3 +181,22 @@ def stop_runs_at(monkeypatch, step, how="sigint"):
 
     monkeypatch.setattr(common, "run", lambda model, state, n, writers=(), **k: real(
         model, state, n, writers=[*writers, CallbackWriter(stop)], **k))
+
+
+def signal_child(proc, sig, *, before=None, timeout=60):
+    """Send ``sig`` to the child ``proc`` (a ``subprocess.Popen`` with text pipes) once
+    ``before()`` (if given) has returned, and collect its output; the child is killed on the
+    way out whatever happens.  Returns (what ``before`` returned, monotonic time of the
+    signal, stdout, stderr)."""
+    import time
+
+    try:
+        got = before() if before is not None else None
+        sent = time.monotonic()
+        proc.send_signal(sig)
+        out, err = proc.communicate(timeout=timeout)
+    finally:
+        if proc.poll() is None:
+            proc.kill()
+            proc.wait()
+    return got, sent, out, err

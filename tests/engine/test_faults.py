@@ -206,6 +206,51 @@ def test_a_second_writer_is_refused_and_a_killed_ones_lock_does_not_block(tmp_pa
     assert not (tmp_path / ".run.h5.lock").exists()
 
 
+TRY_LOCK = textwrap.dedent("""
+    import sys
+    from engine import io
+    try:
+        io.lock_history(sys.argv[1])
+        print("got it")
+    except io.RunLocked as e:
+        print("refused:", e)
+""")
+
+
+def test_lock_history_is_shared_in_a_process_and_held_until_its_last_release(tmp_path):
+    """io.lock_history: two holders in this process share one lock; another process is
+    refused (one line naming this pid) until the last holder releases it."""
+    path = tmp_path / "out" / "run.h5"          # the folder does not exist yet
+    script = tmp_path / "try.py"
+    script.write_text(TRY_LOCK)
+
+    def other() -> str:
+        return subprocess.run([sys.executable, str(script), str(path)], cwd=ROOT, env=ENV,
+                              capture_output=True, text=True, timeout=120).stdout.strip()
+
+    a = io.lock_history(path)
+    b = io.lock_history(path)
+    assert not a.stale
+    said = other()
+    assert said.startswith(f"refused: {path}: ") and f"pid {os.getpid()} on " in said
+    a.release()
+    assert other().startswith("refused:")
+    b.release()
+    assert other() == "got it"
+    assert isinstance(io.RunLocked(11, "x", "f"), io.FileProblem)
+    assert str(io.WriteFailed("f.h5", 28, "the disk is full")) == "f.h5: the disk is full"
+
+
+def test_free_bytes_follows_what_is_written_on_the_disk(small_disk):
+    """io.free_bytes on a 4 MiB tmpfs: about 4 MiB for a path not created yet (the nearest
+    existing folder is looked at), 1 MiB less after a 1 MiB file is written."""
+    d = small_disk(4096)
+    before = io.free_bytes(d / "not" / "yet" / "run.h5")
+    assert 4096 * 1024 - 64 * 1024 <= before <= 4096 * 1024
+    (d / "ballast").write_bytes(b"\0" * (1 << 20))
+    assert before - io.free_bytes(d) == pytest.approx(1 << 20, abs=8192)
+
+
 def test_a_second_nscd_run_on_the_same_out_is_refused_and_the_first_goes_on(tmp_path):
     """Two ``nscd run`` on one --out: the second (another mu, which would start afresh and
     remove the first's checkpoint) exits 2 naming the other run; the first ends normally

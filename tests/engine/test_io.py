@@ -17,6 +17,7 @@ import pytest
 from engine import Scene, io, laws, run, step
 from engine.model import Model
 from engine.state import State
+from tests.helpers import signal_child
 from engine.step import CallbackWriter, NonConvergenceWarning
 from tests.helpers import G, lattice_pile
 
@@ -385,14 +386,7 @@ def test_killed_run_leaves_a_readable_history(tmp_path, sig):
     env = {**os.environ, "PYTHONPATH": str(ROOT)}
     proc = subprocess.Popen([sys.executable, str(script), str(path)], cwd=ROOT, env=env,
                             stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
-    try:
-        before = _wait_records(proc, path, 100)
-        proc.send_signal(sig)
-        out, err = proc.communicate(timeout=60)
-    finally:
-        if proc.poll() is None:
-            proc.kill()
-            proc.wait()
+    before, _, out, err = signal_child(proc, sig, before=lambda: _wait_records(proc, path, 100))
     d = io.read_history(path)
     n = d.n_records
     assert n >= before.n_records

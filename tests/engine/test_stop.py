@@ -18,6 +18,7 @@ import pytest
 from engine import run, step, stop
 from engine.step import NonConvergenceWarning
 from tests.engine.test_io import scene
+from tests.helpers import signal_child
 
 ROOT = Path(__file__).resolve().parents[2]
 
@@ -163,16 +164,11 @@ def test_a_real_signal_inside_a_long_step_stops_it_within_a_second(tmp_path, sig
     proc = subprocess.Popen([sys.executable, str(script)], cwd=ROOT,
                             env={**os.environ, "PYTHONPATH": str(ROOT)},
                             stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
-    try:
+    def stepping():
         assert proc.stdout.readline().strip() == "stepping"
         time.sleep(2.0)
-        sent = time.monotonic()
-        proc.send_signal(sig)
-        out, err = proc.communicate(timeout=60)
-    finally:
-        if proc.poll() is None:
-            proc.kill()
-            proc.wait()
+
+    _, sent, out, err = signal_child(proc, sig, before=stepping)
     assert proc.returncode == 0, err[-2000:]
     interrupted, steps, t = out.split()
     assert (interrupted, steps) == ("True", "0")

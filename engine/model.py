@@ -109,12 +109,17 @@ class Options(Checked):
     hot_sweeps: int = Field(0, ge=0, le=8)
     max_overlap: float = Field(2.0, gt=0.0, le=1e3, allow_inf_nan=False)
 
-    @model_validator(mode="after")
-    def _hot_alone(self):
-        problem = solver_conflict(self.hot_sweeps, self.anderson, self.relax, self.threads)
-        if problem:
-            raise ValueError(problem)
-        return self
+    _hot_alone = model_validator(mode="after")(lambda self: no_solver_conflict(self))
+
+
+def no_solver_conflict(m):
+    """``m`` (a record with ``hot_sweeps``, ``anderson``, ``relax`` and ``threads``) when
+    its NLGS options go together, else ValueError (:func:`solver_conflict`): the validator
+    of :class:`Options` and of the tests' parameter models."""
+    problem = solver_conflict(m.hot_sweeps, m.anderson, m.relax, m.threads)
+    if problem:
+        raise ValueError(problem)
+    return m
 
 
 def solver_conflict(hot_sweeps, anderson, relax, threads) -> str | None:

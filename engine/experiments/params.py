@@ -23,7 +23,7 @@ from typing import Literal, Optional
 from pydantic import ConfigDict, Field, ValidationError, model_validator
 
 from ..checks import InputError, NumbersOnly, describe
-from ..model import MAX_ITER_LIMIT
+from ..model import MAX_ITER_LIMIT, no_solver_conflict
 
 __all__ = ["PARAMS", "STEP_LIMIT", "SEED_LIMIT", "check_args", "SolverParams",
            "TriaxialParams", "CylinderParams", "BoxParams", "SlopeParams", "DepositParams"]
@@ -60,14 +60,7 @@ class SolverParams(Strict):
     record_every: int = Field(10, ge=1, le=STEP_LIMIT)
     frames: int = Field(100, ge=0, le=STEP_LIMIT)
 
-    @model_validator(mode="after")
-    def _hot_alone(self):
-        from ..model import solver_conflict
-
-        problem = solver_conflict(self.hot_sweeps, self.anderson, self.relax, self.threads)
-        if problem:
-            raise ValueError(problem)
-        return self
+    _hot_alone = model_validator(mode="after")(lambda self: no_solver_conflict(self))
 
 
 class TriaxialParams(SolverParams):

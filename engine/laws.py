@@ -157,6 +157,43 @@ class BrittleElasticWire(ElasticWire):
     max_tension: float = Field(gt=0.0, allow_inf_nan=False, description="[N], > 0")
 
 
-__all__ = ["Law", "Coulomb", "WireLaw", "RigidRod", "ElasticRod", "RigidWire", "ElasticWire",
+#: The default stiffness k [N] of an elastic law named in a run file or a sweep grid (the
+#: paper's ElasticWire(k = 1 N)).
+DEFAULT_STIFFNESS = 1.0
+
+#: Wire laws by the name run files and sweep grids give them ("none": sand only).
+WIRE_LAWS = {"elastic": ElasticWire, "rigid": RigidWire, "elastic_rod": ElasticRod,
+             "rigid_rod": RigidRod, "brittle": BrittleElasticWire}
+
+
+def wire_law(name, *, stiffness=None, prestrain=None, max_tension=None) -> WireLaw | None:
+    """The wire law called ``name`` (a key of :data:`WIRE_LAWS`, or ``"none"``: no wire,
+    None), with its parameters: ``stiffness`` k [N] for the elastic laws (default
+    :data:`DEFAULT_STIFFNESS`), ``max_tension`` [N] for ``"brittle"`` (required),
+    ``prestrain`` ε₀ for every law.  A parameter the law does not have is refused by name
+    (a stiffness given to the rigid wire was ignored before: issue 33)."""
+    names = ", ".join(map(repr, [*WIRE_LAWS, "none"]))
+    if not isinstance(name, str) or name not in (*WIRE_LAWS, "none"):
+        raise ValueError(f"wire must be one of {names}, got {name!r}")
+    given = {k: v for k, v in (("stiffness", stiffness), ("prestrain", prestrain),
+                               ("max_tension", max_tension)) if v is not None}
+    if name == "none":
+        if given:
+            raise ValueError(f"{', '.join(given)}: the wire is 'none' (sand only)")
+        return None
+    cls = WIRE_LAWS[name]
+    for field, v in given.items():
+        if field not in cls.model_fields:
+            elastic = [n for n, c in WIRE_LAWS.items() if field in c.model_fields]
+            raise ValueError(f"{field} = {v!r}: the {name!r} wire has no {field} "
+                             f"({', '.join(elastic)} only)")
+    if "stiffness" in cls.model_fields:
+        given.setdefault("stiffness", DEFAULT_STIFFNESS)
+    if cls is BrittleElasticWire and "max_tension" not in given:
+        raise ValueError("max_tension: required by the 'brittle' wire [N]")
+    return cls(**given)
+
+
+__all__ = ["wire_law", "WIRE_LAWS", "DEFAULT_STIFFNESS", "Law", "Coulomb", "WireLaw", "RigidRod", "ElasticRod", "RigidWire", "ElasticWire",
            "BrittleElasticWire", "COULOMB", "RIGID_ROD", "ELASTIC_ROD", "RIGID_WIRE",
            "ELASTIC_WIRE", "N_PARAM"]

@@ -125,21 +125,22 @@ def case_id(experiment, params: Mapping) -> str:
 
 # ------------------------------------------------------------------ the paper's tests
 
-def _law(wire, k):
+def _law(wire, k, prestrain=None, max_tension=None):
+    """(has a wire, its law) of a sweep case: ``wire`` a law's name
+    (:data:`engine.laws.WIRE_LAWS`, or "none"; True and False for "elastic" and "none"),
+    ``k`` its stiffness [N], and the law's ``prestrain`` and ``max_tension``."""
     from . import laws
 
-    if wire in ("elastic", True):
+    wire = {True: "elastic", False: "none", None: "none"}.get(wire, wire) \
+        if isinstance(wire, (bool, type(None))) else wire
+    if k is not None:
         try:
-            k = float(1.0 if k is None else k)
+            k = float(k)
         except (TypeError, ValueError):
             raise ValueError(f"k must be the elastic wire's stiffness in N (> 0), got {k!r}") \
                 from None
-        return True, laws.ElasticWire(stiffness=k)
-    if wire == "rigid":
-        return True, laws.RigidWire()
-    if wire in ("none", False, None):
-        return False, None
-    raise ValueError(f"wire must be 'elastic', 'rigid' or 'none', got {wire!r}")
+    law = laws.wire_law(wire, stiffness=k, prestrain=prestrain, max_tension=max_tension)
+    return law is not None, law
 
 
 def scalars_of(result) -> dict:
@@ -195,16 +196,19 @@ def _history_path(params, fixed, default_name):
 
 
 def _paper_test(name):
-    def experiment(*, wire="elastic", k=None, history_dir=None, **params):
+    def experiment(*, wire="elastic", k=None, prestrain=None, max_tension=None,
+                   history_dir=None, **params):
         from . import experiments
 
         fn = getattr(experiments, name)
-        has_wire, law = _law(wire, k)
+        has_wire, law = _law(wire, k, prestrain, max_tension)
         kw = dict(params)
         kw["wire"] = has_wire
         if has_wire:
             kw["wire_law"] = law
-        key_params = dict(params, wire=wire, k=k)
+        key_params = dict(params, wire=wire, k=k)     # (ids of earlier tables kept:)
+        key_params.update({n: v for n, v in (("prestrain", prestrain),
+                                             ("max_tension", max_tension)) if v is not None})
         kw.setdefault("history", _history_path(key_params, {"history_dir": history_dir}, name))
         kw.setdefault("progress", False)
         if "resume" in inspect.signature(fn).parameters:
@@ -230,7 +234,7 @@ def _check_paper_cases(name, cases, fixed) -> None:
     from .experiments.params import check_args
 
     sig = inspect.signature(getattr(experiments, name)).parameters
-    allowed = (set(sig) - {"wire_law"}) | {"k", "history_dir"}  # the law comes from wire, k
+    allowed = (set(sig) - {"wire_law"}) | {"k", "prestrain", "max_tension", "history_dir"}
     for c in cases:
         params = dict(fixed, **c)
         bad = sorted(set(params) - allowed)
@@ -238,7 +242,8 @@ def _check_paper_cases(name, cases, fixed) -> None:
             raise ValueError(f"{name} takes no parameter {', '.join(map(repr, bad))}; its "
                              f"parameters are {', '.join(sorted(allowed))}")
         try:
-            _law(params.get("wire", "elastic"), params.get("k"))
+            _law(params.get("wire", "elastic"), params.get("k"), params.get("prestrain"),
+                 params.get("max_tension"))
             check_scale(params.get("scale", sig["scale"].default))
             check_args(name, {n: params.get(n, p.default) for n, p in sig.items()
                               if n != "wire"})          # (the sweep's wire is a law's name)

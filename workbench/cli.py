@@ -28,8 +28,11 @@ A TOML file for ``nscd run``::
     pressure = 15e3
     axial_strain = 0.05
     [wire]
-    law = "elastic"                    # "elastic", "rigid" or "none" (sand only)
-    stiffness = 1.0                    # [N], elastic only
+    law = "elastic"                    # "elastic", "rigid", "elastic_rod", "rigid_rod",
+                                       # "brittle" or "none" (sand only)
+    stiffness = 1.0                    # [N], the elastic laws only
+    prestrain = 0.0                    # ε₀, any law
+    # max_tension = 0.5                # [N], "brittle" only (required there)
     neighbour_contact = false          # true: linked beads also touch (Scene.add_wire)
 
 Unknown keys, wrong types and values out of range are reported together, each with its
@@ -59,18 +62,29 @@ from .render import CAMERAS, PRESETS  # noqa: E402  (no PyVista import: it is la
 # ---------------------------------------------------------------- configuration files
 
 class WireConfig(_Strict):
-    law: Literal["elastic", "rigid", "none"] = "elastic"
-    stiffness: float = Field(1.0, gt=0, description="[N], elastic wire only")
+    law: Literal["elastic", "rigid", "elastic_rod", "rigid_rod", "brittle", "none"] = Field(
+        "elastic", description="elastic: ElasticWire, rigid: RigidWire (tension only); "
+                               "elastic_rod, rigid_rod: either sign; brittle: an elastic "
+                               "wire whose links break past max_tension; none: sand only")
+    stiffness: float = Field(1.0, gt=0, description="k [N], elastic laws only")
+    prestrain: float = Field(0.0, gt=-1, le=1, description="ε₀ [-]: reference length g(0)/(1+ε₀)")
+    max_tension: Optional[float] = Field(None, gt=0, description="[N], brittle only (required)")
     neighbour_contact: bool = Field(False, description="linked beads also touch like two "
                                                        "spheres (false: a slack link's beads "
                                                        "may overlap)")
 
     @model_validator(mode="after")
-    def _stiffness_of_elastic_only(self):
-        if self.law != "elastic" and "stiffness" in self.model_fields_set:
-            raise ValueError(f"stiffness = {self.stiffness!r}: the {self.law!r} wire has no "
-                             f"stiffness (elastic only)")
+    def _parameters_of_the_law(self):
+        self.wire_law()              # a parameter the law has not (stiffness of 'rigid' ...)
         return self
+
+    def wire_law(self):
+        """The law object (:func:`engine.laws.wire_law`; None for "none")."""
+        from engine import laws
+
+        given = {n: getattr(self, n) for n in ("stiffness", "prestrain", "max_tension")
+                 if n in self.model_fields_set}
+        return laws.wire_law(self.law, **given)
 
 
 def _default_scale(test: str) -> float:
@@ -175,17 +189,14 @@ def config_help() -> str:
 
 
 def run_config(cfg: RunConfig, params: BaseModel, out: Path, progress=True):
-    from engine import laws
     from engine import experiments
 
     fn = getattr(experiments, cfg.test)
     kw = params.model_dump(exclude_none=True)
-    if cfg.wire.law == "none":
-        kw["wire"] = False
-    else:
-        kw["wire"] = True
-        kw["wire_law"] = (laws.RigidWire() if cfg.wire.law == "rigid"
-                          else laws.ElasticWire(stiffness=cfg.wire.stiffness))
+    law = cfg.wire.wire_law()
+    kw["wire"] = law is not None
+    if law is not None:
+        kw["wire_law"] = law
         kw["neighbour_contact"] = cfg.wire.neighbour_contact
     scale = _default_scale(cfg.test) if cfg.scale is None else cfg.scale
     return fn(scale, seed=cfg.seed, history=str(out / "run.h5"), progress=progress, **kw)

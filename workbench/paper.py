@@ -228,11 +228,10 @@ def cases_for(scale: Scale, only=None) -> list[dict]:
 def _law(wire, k):
     from engine import laws
 
-    if wire == "elastic":
-        return True, laws.ElasticWire(stiffness=float(k))
-    if wire == "rigid":
-        return True, laws.RigidWire()
-    return False, None
+    if wire == "none":                       # (the slope's sand cases carry k = 1: unused)
+        return False, None
+    law = laws.wire_law(wire, stiffness=None if k is None else float(k))
+    return True, law
 
 
 def _write_curves(path, arrays: dict):

@@ -17,6 +17,7 @@ from pathlib import Path
 import numpy as np
 
 from ..drivers import ConfinementError  # noqa: F401  (re-exported: engine.experiments)
+from ..laws import DEFAULT_STIFFNESS
 from ..scene import check_bool  # noqa: F401  (the experiments import it from here)
 from ..step import NonConvergenceWarning, run
 
@@ -149,7 +150,7 @@ def choose_rate(rate, pressure, d_mean, density, *, target_I, allow_dynamic):
 
 #: The wire stiffness k [N] of the tests' default law, the paper's ElasticWire(k = 1 N)
 #: (§3.3; the slope's is not given, the same is used).
-DEFAULT_WIRE_STIFFNESS = 1.0
+DEFAULT_WIRE_STIFFNESS = DEFAULT_STIFFNESS
 
 
 def wire_law_or_default(wire_law):

@@ -384,3 +384,39 @@ def test_an_interrupted_named_test_is_not_recorded_as_done(tmp_path, monkeypatch
         sweep("gravity_deposit", {"scale": [0.02], "sample": ["box"], "seed": [0, 1]}, "serial",
               out=out, fixed={"history_dir": str(tmp_path / "runs")}, progress=False)
     assert [r["status"] for r in load_table(out).rows] == ["pending", "pending"]
+
+
+def test_a_grid_names_every_wire_law_and_its_parameters(tmp_path, monkeypatch):
+    """``wire`` of a sweep case is any of engine.laws.WIRE_LAWS (or "none"), with ``k``,
+    ``prestrain`` and ``max_tension``: the test function gets that law; a parameter the
+    law has not is refused before any case runs (the rigid wire's k used to be ignored)."""
+    from engine import experiments
+    from engine.sweep import EXPERIMENTS, _check_paper_cases
+
+    got = []
+
+    def fake(scale=0.05, **kw):        # records the arguments instead of running the test
+        got.append(kw)
+        raise RuntimeError("recorded")
+
+    cases = {"brittle": (dict(k=2.0, max_tension=0.5, prestrain=0.01),
+                         laws.BrittleElasticWire(stiffness=2.0, max_tension=0.5, prestrain=0.01)),
+             "rigid_rod": (dict(prestrain=0.02), laws.RigidRod(prestrain=0.02)),
+             "elastic_rod": (dict(k=3.0), laws.ElasticRod(stiffness=3.0)),
+             "elastic": ({}, laws.ElasticWire(stiffness=1.0)),
+             "rigid": ({}, laws.RigidWire())}
+    for wire, (kw, want) in cases.items():
+        _check_paper_cases("gravity_deposit", [dict(wire=wire, **kw)], {})
+    for case, says in ((dict(wire="rigid", k=1.0), "the 'rigid' wire has no stiffness"),
+                       (dict(wire="brittle"), "max_tension: required by the 'brittle' wire"),
+                       (dict(wire="elastic", max_tension=1.0), "the 'elastic' wire has no "
+                                                               "max_tension"),
+                       (dict(wire="none", prestrain=0.1), "the wire is 'none'"),
+                       (dict(wire="steel"), "wire must be one of 'elastic', 'rigid'")):
+        with pytest.raises(ValueError, match=says):
+            _check_paper_cases("gravity_deposit", [case], {})
+    monkeypatch.setattr(experiments, "gravity_deposit", fake)
+    for wire, (kw, want) in cases.items():
+        with pytest.raises(RuntimeError, match="recorded"):
+            EXPERIMENTS["gravity_deposit"](wire=wire, history_dir=str(tmp_path), **kw)
+        assert got[-1]["wire"] is True and got[-1]["wire_law"] == want, wire

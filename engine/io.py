@@ -796,6 +796,17 @@ def file_content(path) -> tuple[str, int]:
     return _reading(path, lambda f: (_check_root(f, path), int(f.attrs["format_version"])))
 
 
+def frame_count(path) -> int:
+    """Frames :func:`load` can read from ``path``: a history's complete frames (0 before
+    the first), 1 for a checkpoint."""
+    def read(f):
+        if _check_root(f, path) == "checkpoint":
+            return 1
+        return _frame_count(f["frames"]) if "frames" in f else 0
+
+    return _reading(path, read)
+
+
 def load_model(path, callables: dict | None = None) -> Model:
     """The model of a checkpoint or history file (see :func:`load`)."""
     def read(f):

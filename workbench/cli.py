@@ -6,7 +6,8 @@
                                              PNG snapshots and figures, a ParaView series
     nscd run CONFIG.toml [--out DIR] [--view]  a test from a validated TOML file (--view: and
                                              its live viewer)
-    nscd render RUN.h5 [--frame N] [--preset beads|wire|forces|torus] [--camera ...] [--out PNG]
+    nscd render RUN.h5 [--frames N|A:B|all] [--preset beads|wire|forces|torus] [--camera ...]
+               [--window-size WxH] [--clim LO,HI] [--out PNG|DIR] [--movie FILE.mp4|.gif]
     nscd export RUN.h5 OUTDIR                every frame of a history as VTU + a PVD
     nscd info RUN.h5                         what a checkpoint or history holds
     nscd view PATH [--port N] [--host H] [--follow] [--mode server|client]
@@ -41,6 +42,7 @@ field and the allowed range; nothing runs then.
 from __future__ import annotations
 
 import argparse
+import math
 import os
 import signal
 import sys
@@ -229,19 +231,16 @@ def export_series(history, outdir, *, name="frame", progress=True) -> Path:
 
 def _n_frames(path) -> int:
     from engine import io
-    return io.read_history(path, frames=True).n_frames
+    return io.frame_count(path)
 
 
 def render_frame(history, out, *, frame=-1, preset="beads", camera="iso", **options) -> Path:
-    from engine import io
-    from engine.model import CYLINDER
-    from .render import snapshot
+    """Frame ``frame`` of ``history`` (a history or a checkpoint) drawn with ``preset`` to
+    the PNG ``out`` (:func:`workbench.frames.render_frames` for several)."""
+    from .frames import render_frames
 
-    model, state = io.load(history, frame=frame)
-    opts = dict(options)
-    if preset == "torus" and not (model.body_kind == CYLINDER).any() and "cylinder" not in opts:
-        opts["cylinder"] = sample_cylinder(model, state)
-    return snapshot(model, state, out, preset=preset, camera=camera, **opts)
+    return render_frames(history, out, frames=frame, preset=preset, camera=camera,
+                         progress=False, **options)[0]
 
 
 def figures_of(result, out: Path) -> list[Path]:
@@ -320,6 +319,9 @@ def cmd_demo(a) -> int:
     paths = figures_of(res, out)
     for preset in PRESETS:
         paths.append(render_frame(res.history, out / f"{preset}.png", preset=preset))
+    from .frames import write_movie     # the test in motion, one colour scale and camera
+
+    paths.append(write_movie(res.history, out / "wire.mp4", preset="wire", fps=12))
     pvd = export_series(res.history, out / "series", name="cylinder")
     print("wrote:\n  " + "\n  ".join(str(p) for p in [out / "run.h5", *paths, pvd]))
     code = _interrupted(res, "demo")
@@ -374,9 +376,69 @@ def _interrupted(res, command) -> int:
     return INTERRUPTED
 
 
+def _numbers(text, n, what, flag):
+    """``"A,B"`` (``n`` numbers, ``x`` also separates) as floats, or ValueError naming the
+    flag."""
+    parts = [p for p in text.replace("x", ",").split(",") if p.strip()]
+    try:
+        vals = [float(p) for p in parts]
+    except ValueError:
+        vals = []
+    if len(vals) != n or not all(math.isfinite(v) for v in vals):
+        raise ValueError(f"{flag} {text!r}: expected {what}")
+    return vals
+
+
+def render_options(a) -> dict:
+    """The picture options of ``nscd render`` checked (one line naming the flag when bad)."""
+    opts = {}
+    if a.window_size is not None:
+        w, h = _numbers(a.window_size, 2, "WIDTHxHEIGHT in pixels (e.g. 1600x1200)",
+                        "--window-size")
+        if not (w == int(w) and h == int(h) and 16 <= w <= 8192 and 16 <= h <= 8192):
+            raise ValueError(f"--window-size {a.window_size!r}: width and height are whole "
+                             f"pixels in [16, 8192]")
+        opts["window_size"] = (int(w), int(h))
+    if a.clim is not None:
+        lo, hi = _numbers(a.clim, 2, "LOW,HIGH (the colour scale's limits, in the field's "
+                                     "unit)", "--clim")
+        if not hi > lo:
+            raise ValueError(f"--clim {a.clim!r}: HIGH must be above LOW")
+        opts["clim"] = (lo, hi)
+    if a.color_by is not None:
+        if a.preset != "beads":
+            raise ValueError(f"--color-by is for --preset beads (got --preset {a.preset})")
+        opts["color_by"] = a.color_by
+    if a.cut is not None:
+        if a.preset != "beads":
+            raise ValueError(f"--cut is for --preset beads (got --preset {a.preset})")
+        opts["cut"] = tuple(_numbers(a.cut, 3, "X,Y,Z (the side of the sample left out)",
+                                     "--cut"))
+    return opts
+
+
 def cmd_render(a) -> int:
-    out = a.out or str(Path(a.run).with_suffix("")) + f"_{a.preset}.png"
-    print(render_frame(a.run, out, frame=a.frame, preset=a.preset, camera=a.camera))
+    from .frames import MOVIE_SUFFIXES, render_frames, write_movie
+
+    opts = render_options(a)
+    frames = a.frames if a.frames is not None else (a.frame if a.frame is not None else -1)
+    stem = f"{Path(a.run).stem}_{a.preset}"           # in the current folder by default
+    if a.movie is not None:
+        if a.out is not None:
+            raise ValueError("--movie writes one file: give it the path, not --out")
+        if Path(a.movie).suffix.lower() not in MOVIE_SUFFIXES:
+            raise ValueError(f"--movie {a.movie!r}: the file must end in "
+                             f"{' or '.join(MOVIE_SUFFIXES)}")
+        print(write_movie(a.run, a.movie, frames="all" if a.frames is None else a.frames,
+                          preset=a.preset, camera=a.camera, fps=a.fps, **opts))
+        return 0
+    from engine import io
+    from .frames import parse_frames
+
+    several = len(parse_frames(frames, io.frame_count(a.run))) > 1
+    out = a.out or (stem if several else stem + ".png")
+    paths = render_frames(a.run, out, frames=frames, preset=a.preset, camera=a.camera, **opts)
+    print(paths[0] if len(paths) == 1 else f"{Path(out)}: {len(paths)} frames")
     return 0
 
 
@@ -499,14 +561,30 @@ def parser() -> argparse.ArgumentParser:
                    help="replace OUT/run.h5 even when it is not an nscd-workbench history "
                         "(by default such a file is kept and the run refused)")
     r.set_defaults(fn=cmd_run)
-    g = sub.add_parser("render", help="render one frame of a run to PNG (off-screen)")
+    g = sub.add_parser("render", help="render frames of a run to PNG, or a movie (off-screen)",
+                       description="Draw frames of a history (or a checkpoint) off-screen. "
+                                   "Several frames share one colour scale (the field's range "
+                                   "over them, unless --clim) and one camera.")
     g.add_argument("run", help="history (.h5) or checkpoint")
-    g.add_argument("--frame", type=int, default=-1, help="frame index (default: last)")
+    g.add_argument("--frames", help="N (negative: from the end), A:B or A:B:S (B excluded), "
+                                    "or all (default: the last; a movie: all)")
+    g.add_argument("--frame", type=int, default=None, help=argparse.SUPPRESS)  # = --frames N
     g.add_argument("--preset", choices=PRESETS, default="beads",
                    help="what to draw (default beads)")
     g.add_argument("--camera", choices=tuple(CAMERAS), default="iso",
                    help="view direction (default iso)")
-    g.add_argument("--out", help="PNG path (default <run stem>_<preset>.png beside the run)")
+    g.add_argument("--window-size", metavar="WxH", help="picture size in pixels (default 800x600)")
+    g.add_argument("--clim", metavar="LOW,HIGH", help="colour scale limits in the field's unit "
+                                                     "(N for wire and forces, Pa for torus)")
+    g.add_argument("--color-by", choices=("kind", "speed", "group"),
+                   help="beads: colour by kind (default), speed [m/s] or group")
+    g.add_argument("--cut", metavar="X,Y,Z", help="beads: leave out the sand on this side of "
+                                                 "the centre (0,-1,0 with --camera front)")
+    g.add_argument("--out", help="PNG for one frame, folder for several (default "
+                                 "<run stem>_<preset>[.png] in the current folder)")
+    g.add_argument("--movie", metavar="FILE.mp4|FILE.gif",
+                   help="every frame (or --frames) into one movie instead of PNGs")
+    g.add_argument("--fps", type=float, default=10.0, help="movie frames per second (default 10)")
     g.set_defaults(fn=cmd_render)
     e = sub.add_parser("export", help="export every frame of a history to a ParaView series")
     e.add_argument("run", help="history file (.h5) written by a run")

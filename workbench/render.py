@@ -56,7 +56,7 @@ from . import meshes
 
 __all__ = ["PRESETS", "CAMERAS", "snapshot", "plotter", "theme", "set_camera", "add_beads",
            "add_wire", "add_forces", "add_torus", "add_walls", "headless_backend", "revolved_map",
-           "picture_kind"]
+           "picture_kind", "value_range"]
 
 PRESETS = ("beads", "wire", "forces", "torus")
 
@@ -272,14 +272,51 @@ def add_beads(pl, model, state, *, walls: bool = True, wall_opacity: float = 0.1
         elif color_by in ("speed", "group"):
             title = "speed [m/s]" if color_by == "speed" else "group"
             if clim is None:  # explicit: the point-Gaussian mapper's bar would show 0-1
-                v = part.point_data[color_by]
-                clim = (float(v.min()), float(v.max())) if v.max() > v.min() else (0.0, 1.0)
+                clim = _span(part.point_data[color_by])
             _spheres(pl, part, "beads", scalars=color_by, cmap=cmap, clim=clim,
                      show_scalar_bar=True, scalar_bar_args=_bar(title))
         else:
             raise ValueError(f"color_by must be 'kind', 'speed' or 'group', got {color_by!r}")
     if walls:
         add_walls(pl, model, state, opacity=wall_opacity)
+
+
+def _span(v):
+    """(min, max) of ``v``, or (0, 1) when it holds one value (a colour bar needs a range)."""
+    v = np.asarray(v, float)
+    return (float(v.min()), float(v.max())) if v.size and v.max() > v.min() else (0.0, 1.0)
+
+
+def _from_zero(vmax: float):
+    """(0, ``vmax``): forces and tensions start at 0; (0, 1) when there are none."""
+    return (0.0, float(vmax)) if vmax > 0 else (0.0, 1.0)
+
+
+def value_range(model, state, preset: str, *, color_by: str = "kind", cylinder=None,
+                n_r: int = 5, n_z: int = 10, part: str = "wire", field: str = "equivalent",
+                **_):
+    """The colour limits ``preset`` draws this state with by default: (0, max T) for
+    ``wire``, (0, max fn) for ``forces``, the field's (min, max) for ``beads`` coloured by
+    ``speed`` or ``group`` (None coloured by kind: no colour scale), the map's (min, max)
+    for ``torus``.  :func:`workbench.frames.common_clim` joins them over frames."""
+    if preset == "beads":
+        if color_by == "kind":
+            return None
+        if color_by not in ("speed", "group"):
+            raise ValueError(f"color_by must be 'kind', 'speed' or 'group', got {color_by!r}")
+        return _span(meshes.bead_part(model, state).point_data[color_by])
+    if preset == "wire":
+        w = meshes.wire_part(model, state)
+        t = w.cell_data["tension"] if w is not None else np.zeros(0)
+        return _from_zero(float(max(t.max(), 0.0)) if t.size else 0.0)
+    if preset == "forces":
+        c = meshes.contact_part(model, state)
+        fn = c.cell_data["normal_force"] if c is not None else np.zeros(0)
+        return _from_zero(float(fn.max()) if fn.size else 0.0)
+    if preset == "torus":
+        _, tmap = _torus_map(model, state, cylinder, n_r, n_z, part)
+        return _torus_span(_torus_values(tmap, field, part)[0])
+    raise ValueError(f"unknown preset {preset!r}; presets are {list(PRESETS)}")
 
 
 def _tube_lines(part, values, radius, mask, n_sides: int):
@@ -331,7 +368,7 @@ def add_wire(pl, model, state, *, max_radius: float | None = None, slack: float 
         if tubes is not None:
             pl.add_mesh(tubes, name=f"wire_{name}", show_scalar_bar=False, smooth_shading=True, **kw)
     tubes = _tube_lines(part, t, rad, taut, n_sides)
-    lim = clim if clim is not None else (0.0, tmax if tmax > 0 else 1.0)
+    lim = clim if clim is not None else _from_zero(tmax)
     if tubes is not None:
         pl.add_mesh(tubes, scalars="value", cmap=cmap, clim=lim, name="wire_taut", smooth_shading=True,
                     show_scalar_bar=True, scalar_bar_args=_bar("tension [N]"))
@@ -349,7 +386,7 @@ def add_forces(pl, model, state, *, strong: float = 1.0, max_radius: float | Non
 
     Contacts with fn > ``strong`` × mean fn (the strong network) are tubes of radius
     ``max_radius`` × fn / max fn (default: the mean sphere radius × 0.5) coloured by fn [N]
-    over ``clim`` (default: from the strong-network threshold to max fn); the weak
+    over ``clim`` (default: from 0, where the forces start, to max fn); the weak
     network is drawn as 1-px light-grey lines (``weak=False`` hides it).
     """
     part = meshes.contact_part(model, state)
@@ -372,7 +409,7 @@ def add_forces(pl, model, state, *, strong: float = 1.0, max_radius: float | Non
         pl.add_mesh(lines.to_polydata(), color=WEAK_COLOR, line_width=1.0, lighting=False,
                     name="forces_weak", show_scalar_bar=False)
     tubes = _tube_lines(part, fn, np.maximum(rad, thin), is_strong, n_sides)
-    lim = clim if clim is not None else ((threshold, fmax) if fmax > threshold else (0.0, 1.0))
+    lim = clim if clim is not None else _from_zero(fmax)
     if tubes is not None:
         pl.add_mesh(tubes, scalars="value", cmap=cmap, clim=lim, name="forces_strong", smooth_shading=True,
                     show_scalar_bar=True, scalar_bar_args=_bar("normal force [N]"))
@@ -391,6 +428,29 @@ def _cylinder_of(model, state):
                     center=tuple(state.position[w]))
 
 
+def _torus_map(model, state, cylinder, n_r, n_z, part):
+    from engine.analysis import toroidal_map
+
+    if cylinder is None:
+        cylinder = _cylinder_of(model, state)
+    return cylinder, toroidal_map(model, state, cylinder, n_r=n_r, n_z=n_z, part=part)
+
+
+def _torus_values(tmap, field, part):
+    if field == "equivalent":
+        return tmap.equivalent, f"eq. stress\n{part} [Pa]"
+    if field == "pressure":
+        return -np.trace(tmap.stress, axis1=2, axis2=3) / 3.0, f"pressure\n{part} [Pa]"
+    raise ValueError(f"field must be 'equivalent' or 'pressure', got {field!r}")
+
+
+def _torus_span(values):
+    finite = values[np.isfinite(values)]
+    if finite.size and finite.max() > finite.min():
+        return float(finite.min()), float(finite.max())
+    return _from_zero(float(finite.max()) if finite.size else 0.0)
+
+
 def add_torus(pl, model, state, *, cylinder=None, tmap=None, n_r: int = 5, n_z: int = 10,
               part: str = "wire", field: str = "equivalent", clim=None, cmap="viridis",
               sweep: float = 270.0, resolution: int = 72, camera="iso") -> None:
@@ -404,23 +464,10 @@ def add_torus(pl, model, state, *, cylinder=None, tmap=None, n_r: int = 5, n_z: 
     positive).
     """
     if tmap is None:
-        from engine.analysis import toroidal_map
-
-        if cylinder is None:
-            cylinder = _cylinder_of(model, state)
-        tmap = toroidal_map(model, state, cylinder, n_r=n_r, n_z=n_z, part=part)
-    if field == "equivalent":
-        values, title = tmap.equivalent, f"eq. stress\n{part} [Pa]"
-    elif field == "pressure":
-        values = -np.trace(tmap.stress, axis1=2, axis2=3) / 3.0
-        title = f"pressure\n{part} [Pa]"
-    else:
-        raise ValueError(f"field must be 'equivalent' or 'pressure', got {field!r}")
+        cylinder, tmap = _torus_map(model, state, cylinder, n_r, n_z, part)
+    values, title = _torus_values(tmap, field, part)
     re_, ze = np.asarray(tmap.r_edges, float), np.asarray(tmap.z_edges, float)
-    finite = values[np.isfinite(values)]
-    lim = clim if clim is not None else (
-        (float(finite.min()), float(finite.max())) if finite.size and finite.max() > finite.min()
-        else (0.0, float(finite.max()) if finite.size and finite.max() > 0 else 1.0))
+    lim = clim if clim is not None else _torus_span(values)
 
     # left: the axial section (paper Fig. 13c: "drawn in the axial/radial section"), the
     # (r, z) map mirrored about the axis so that it reads as a cut through the sample and
@@ -504,9 +551,11 @@ def tmap_center(cylinder, model, state):
 
 # -- entry points --------------------------------------------------------------------------
 def plotter(model, state, preset: str = "beads", *, camera="iso", window_size=WINDOW_SIZE,
-            zoom: float = 1.0, title: str | None = None, **options):
+            zoom: float = 1.0, title: str | None = None, bounds=None, **options):
     """An off-screen :class:`pyvista.Plotter` holding the picture of ``preset`` (see the
-    module doc; ``options`` go to the preset's builder).  The caller closes it."""
+    module doc; ``options`` go to the preset's builder).  ``bounds`` ((2, 3) [m]) frames the
+    camera on that box instead of this state's free bodies (one camera for several frames:
+    :mod:`workbench.frames`).  The caller closes it."""
     if preset not in PRESETS:
         raise ValueError(f"unknown preset {preset!r}; presets are {list(PRESETS)}")
     w, h = (int(v) for v in window_size)
@@ -526,8 +575,9 @@ def plotter(model, state, preset: str = "beads", *, camera="iso", window_size=WI
         else:
             {"beads": add_beads, "wire": add_wire, "forces": add_forces}[preset](
                 pl, model, state, **options)
-            set_camera(pl, camera, bounds=meshes.scene_bounds(model, state, free_only=True),
-                       zoom=zoom)
+            box = meshes.scene_bounds(model, state, free_only=True) if bounds is None \
+                else np.asarray(bounds, float)
+            set_camera(pl, camera, bounds=box, zoom=zoom)
         text = title if title is not None else f"t = {float(state.time):.4g} s"
         if text:
             # a corner annotation ("lower_left") clips the first glyph at the window edge

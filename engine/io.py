@@ -852,7 +852,8 @@ class History:
     trigger : int or callable ``step -> bool``
         When a scalar record is taken (default: every step).
     frames : int >= 0
-        A frame every ``frames`` steps (on multiples of it); 0 = no frames.
+        A frame every ``frames`` steps (on multiples of it), and one of the state a run
+        starts from (:meth:`write_start`); 0 = no frames.
     flush : int >= 1, optional
         Interval [steps] at which buffered records are written and the file flushed
         (default: ``frames`` if > 0, else 100).  A crash loses at most this many steps.
@@ -920,6 +921,7 @@ class History:
         self._room = None
         self._hold = 0
         self._row_bytes = 0
+        self._start = None            # the start state (write_start), written with the first write
         if meta is not None:
             if not isinstance(meta, dict):
                 raise ValueError(f"meta must be a dict (what the run is), got "
@@ -955,14 +957,6 @@ class History:
     def trigger(self, step: int) -> bool:
         return bool(self._trigger(step)) or (self.frames > 0 and step % self.frames == 0)
 
-    def _begin(self, model, state) -> None:
-        """What every write starts with: an open file, set up at the first one."""
-        if self._file is None:
-            raise ValueError(f"History({self.path!r}) is closed")
-        if not self._ready:
-            self._guarded(state, self._setup, model, state)
-        self._step_seen = state.step
-
     def write(self, model, state) -> None:
         """Record the state after a complete step (called by :func:`engine.run`).
 
@@ -979,6 +973,31 @@ class History:
             self.flush()
         elif state.step - self._last_flush >= self.flush_every:
             self.flush()
+
+    def write_start(self, model, state) -> None:
+        """The state a run starts from as the history's first frame (called by
+        :func:`engine.run` before its first step), when the history has frames and holds no
+        record or frame yet (a fresh file: a series then starts at t = 0; a resumed
+        history, or one a test wrote its step 0 in, already has them).  A copy is kept and
+        written with the first write (the extras are first evaluated on a stepped state)."""
+        if not self.frames or self._file is None or self.n_records or self.n_frames \
+                or (self._buf and self._buf["time"]) or self._start is not None:
+            return
+        import copy
+
+        self._start = copy.deepcopy(state)
+
+    def _begin(self, model, state) -> None:
+        """What every write starts with: an open file, set up at the first one, then the
+        start frame kept by :meth:`write_start`."""
+        if self._file is None:
+            raise ValueError(f"History({self.path!r}) is closed")
+        if not self._ready:
+            self._guarded(state, self._setup, model, state)
+        start, self._start = self._start, None
+        if start is not None and start.step < state.step:
+            self._guarded(start, self._frame, model, start)
+        self._step_seen = state.step
 
     def write_final(self, model, state) -> None:
         """Record the state reached, and write its frame when the history has frames, unless

@@ -291,7 +291,9 @@ def run(model, state, steps: int, writers: Iterable = (), progress: bool = True)
     ----------
     steps : int >= 0
     writers : iterable of writers (``trigger(step)``, ``write(model, state)``, optional
-        ``flush()``); they run after a complete step and never modify the state.
+        ``flush()``); they run after a complete step and never modify the state.  A
+        writer's optional ``write_start(model, state)`` is called before the first step
+        (:class:`engine.io.History` writes the start state as its first frame there).
     progress : bool
         Show a tqdm progress bar with the step rate, NLGS sweeps and contacts.
 
@@ -347,6 +349,10 @@ def run(model, state, steps: int, writers: Iterable = (), progress: bool = True)
     undo = _Undo()
     walls = model.wall_ids.astype(np.int64)
     check_energy = energy_sources(model, state) is None
+    for w in writers:                   # the start state (a history's frame 0 ...)
+        start = getattr(w, "write_start", None)
+        if start is not None:
+            start(model, state)
     try:
         for _ in range(int(steps)):
             if _stop.requested():        # also a request made before the run started

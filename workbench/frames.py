@@ -69,16 +69,18 @@ def _states(history, frames):
 
 def common_clim(history, preset: str, frames, **options):
     """The colour limits (lo, hi) covering ``preset``'s field over ``frames`` of
-    ``history`` (:func:`workbench.render.value_range` of each), or None for a picture
-    without a colour scale (beads coloured by kind)."""
+    ``history`` (the union of :func:`workbench.render.value_range` of each; widened to
+    (lo, lo + 1) when empty), or None for a picture without a colour scale (beads coloured
+    by kind) or without data."""
     from .render import value_range
 
+    if preset == "beads" and options.get("color_by", "kind") == "kind":
+        return None                                   # no colour scale
     lo, hi = np.inf, -np.inf
     for _, model, state in _states(history, frames):
         r = value_range(model, state, preset, **_frame_options(model, state, preset, options))
-        if r is None:
-            return None
-        lo, hi = min(lo, r[0]), max(hi, r[1])
+        if r is not None:                             # (an empty map: no data there)
+            lo, hi = min(lo, r[0]), max(hi, r[1])
     if not np.isfinite(lo):
         return None
     return (float(lo), float(hi) if hi > lo else float(lo) + 1.0)

@@ -295,27 +295,32 @@ def _from_zero(vmax: float):
 def value_range(model, state, preset: str, *, color_by: str = "kind", cylinder=None,
                 n_r: int = 5, n_z: int = 10, part: str = "wire", field: str = "equivalent",
                 **_):
-    """The colour limits ``preset`` draws this state with by default: (0, max T) for
-    ``wire``, (0, max fn) for ``forces``, the field's (min, max) for ``beads`` coloured by
-    ``speed`` or ``group`` (None coloured by kind: no colour scale), the map's (min, max)
-    for ``torus``.  :func:`workbench.frames.common_clim` joins them over frames."""
+    """The data range of ``preset``'s colour scale in this state: (0, max T) for ``wire``,
+    (0, max fn) for ``forces``, the field's (min, max) for ``beads`` coloured by ``speed``
+    or ``group``, the map's finite (min, max) for ``torus``; None without a colour scale
+    (beads by kind) or without data (an empty map).  The range may be empty, (0, 0) for a
+    slack wire: :func:`workbench.frames.common_clim` joins the ranges of several frames, a
+    single picture widens an empty one to (0, 1)."""
     if preset == "beads":
         if color_by == "kind":
             return None
         if color_by not in ("speed", "group"):
             raise ValueError(f"color_by must be 'kind', 'speed' or 'group', got {color_by!r}")
-        return _span(meshes.bead_part(model, state).point_data[color_by])
+        v = np.asarray(meshes.bead_part(model, state).point_data[color_by], float)
+        return (float(v.min()), float(v.max())) if v.size else None
     if preset == "wire":
         w = meshes.wire_part(model, state)
         t = w.cell_data["tension"] if w is not None else np.zeros(0)
-        return _from_zero(float(max(t.max(), 0.0)) if t.size else 0.0)
+        return 0.0, float(max(t.max(), 0.0)) if t.size else 0.0
     if preset == "forces":
         c = meshes.contact_part(model, state)
         fn = c.cell_data["normal_force"] if c is not None else np.zeros(0)
-        return _from_zero(float(fn.max()) if fn.size else 0.0)
+        return 0.0, float(fn.max()) if fn.size else 0.0
     if preset == "torus":
         _, tmap = _torus_map(model, state, cylinder, n_r, n_z, part)
-        return _torus_span(_torus_values(tmap, field, part)[0])
+        v = _torus_values(tmap, field, part)[0]
+        v = v[np.isfinite(v)]
+        return (float(v.min()), float(v.max())) if v.size else None
     raise ValueError(f"unknown preset {preset!r}; presets are {list(PRESETS)}")
 
 

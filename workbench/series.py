@@ -152,6 +152,12 @@ class SeriesWriter:
             parts["walls"] = meshes.wall_part(model, state)
         return parts
 
+    def write_start(self, model, state) -> None:
+        """The state a run starts from as the series' first frame (called by
+        :func:`engine.run` before its first step), unless the series has frames already."""
+        if self.frames == 0:
+            self.write(model, state)
+
     def write(self, model, state) -> None:
         """Write the frame of ``state`` (one VTU per part) and rewrite the PVD."""
         t = float(state.time)

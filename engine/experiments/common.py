@@ -603,10 +603,12 @@ class Recorder:
 
     def write(self, model, state):
         self.written_step = state.step
-        for k, fn in self.fns.items():
-            v = fn(model, state)
+        for k, v in self.values(model, state).items():
             self.last[k] = v
-            self.rows[k].append(v)
+            self.rows.setdefault(k, []).append(v)
+
+    def values(self, model, state) -> dict:
+        return {k: fn(model, state) for k, fn in self.fns.items()}
 
     def write_final(self, model, state):
         """:meth:`write` unless this step is recorded already or recording is off."""

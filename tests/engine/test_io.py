@@ -192,7 +192,8 @@ def test_checkpoint_writer_saves_on_its_trigger(tmp_path):
 
 
 def test_history_write_final_keeps_the_end_state_once(tmp_path):
-    """A run of 25 steps recorded every 10 with frames every 20: write_final adds the end
+    """A run of 25 steps recorded every 10 with frames every 20 (and the start state, frame
+    0): write_final adds the end
     state (step 25) as a record and a frame, with the same values the writer records at a
     trigger (time, kinetic energy), and writes nothing more when called again or when the
     end step was recorded already."""
@@ -204,7 +205,7 @@ def test_history_write_final_keeps_the_end_state_once(tmp_path):
     h.write_final(model, state)
     h.close()
     d = io.read_history(tmp_path / "h.h5")
-    assert d.step.tolist() == [10, 20, 25] and d.frame_step.tolist() == [20, 25]
+    assert d.step.tolist() == [10, 20, 25] and d.frame_step.tolist() == [0, 20, 25]
     assert d.time[-1] == pytest.approx(25 * model.options.dt, rel=1e-12)
     assert d.kinetic_energy[-1] == io.kinetic_energy(model, state)
     np.testing.assert_array_equal(io.load(tmp_path / "h.h5", frame=-1)[1].position,
@@ -215,7 +216,7 @@ def test_history_write_final_keeps_the_end_state_once(tmp_path):
     h2.write_final(model, state)
     h2.close()
     d2 = io.read_history(tmp_path / "h2.h5")
-    assert d2.step.tolist() == [30, 40] and d2.frame_step.tolist() == [40]
+    assert d2.step.tolist() == [30, 40] and d2.frame_step.tolist() == [25, 40]   # its start
 
 
 def test_a_checkpoint_refuses_a_frame_other_than_its_state(checkpoint):
@@ -304,7 +305,8 @@ def test_history_reload_returns_what_was_observed_during_the_run(tmp_path):
             run(model, state, 60, writers=[CallbackWriter(observe, 1), h], progress=False)
             run(model, state, 40, writers=[CallbackWriter(observe, 1), h], progress=False)
     d = io.read_history(path)
-    assert d.n_records == 100 and d.n_frames == 4
+    assert d.n_records == 100 and d.n_frames == 5       # the start state, then 25 ... 100
+    assert d.frame_step.tolist() == [0, 25, 50, 75, 100]
     t, st, ke, it, res, conv, nc, wf, nl, sig = map(np.asarray, zip(*seen))
     assert np.array_equal(d.time, t) and np.array_equal(d.step, np.arange(1, 101))
     assert np.allclose(d.kinetic_energy, ke, rtol=1e-12, atol=0)
@@ -316,8 +318,7 @@ def test_history_reload_returns_what_was_observed_during_the_run(tmp_path):
     assert np.array_equal(d.wall_ids, model.wall_ids)
     assert np.array_equal(d.extra["stress"], sig) and d.units["stress"] == "N m"
     assert d.units["wall_force"] == "N" and d.units["kinetic_energy"] == "J"
-    assert np.array_equal(d.frame_step, [25, 50, 75, 100])
-    for k, (s_, pos, vel, spin, ten, ci, cj, cf) in enumerate(frames):
+    for k, (s_, pos, vel, spin, ten, ci, cj, cf) in enumerate(frames, start=1):
         assert d.frame_step[k] == s_
         assert np.array_equal(d.position[k], pos) and np.array_equal(d.velocity[k], vel)
         assert np.array_equal(d.spin[k], spin) and np.array_equal(d.link_tension[k], ten)
@@ -325,7 +326,7 @@ def test_history_reload_returns_what_was_observed_during_the_run(tmp_path):
         assert np.array_equal(c["i"], ci) and np.array_equal(c["j"], cj)
         assert np.array_equal(c["force"], cf)
     # the model is stored once: load() gives it back with the state of a frame
-    m2, s2 = io.load(path, frame=1)
+    m2, s2 = io.load(path, frame=2)
     assert _same(m2.body_radius, model.body_radius) and m2.options == model.options
     assert s2.step == 50 and np.array_equal(s2.position, frames[1][1])
     assert np.allclose(s2.contacts.force, frames[1][7], rtol=1e-9, atol=1e-12)
@@ -441,7 +442,7 @@ def test_history_frame_gives_the_wire_stress(tmp_path):
     with io.History(path, frames=25) as h, _Quiet():
         run(model, state, 100, writers=[CallbackWriter(observe, 1), h], progress=False)
     k = max(range(4), key=lambda q: np.abs(live[25 * (q + 1)]).max())   # the most taut frame
-    _, s2 = io.load(path, frame=k)
+    _, s2 = io.load(path, frame=k + 1)                                 # (frame 0: the start)
     assert np.allclose(np.linalg.norm(s2.link_normal, axis=1), 1.0)
     got = weber_stress(model, s2, part="wire").tensor
     ref = live[25 * (k + 1)]
@@ -487,9 +488,9 @@ def test_history_resumed_at_a_step_cuts_what_follows_it(tmp_path):
         run(model, state, 50, writers=[h], progress=False)
         h.write_final(model, state)              # (on the grid already: nothing more)
     with io.History(p, trigger=10, frames=20, resume_step=30) as h:
-        assert (h.n_records, h.n_frames) == (3, 1)
+        assert (h.n_records, h.n_frames) == (3, 2)
     d = io.read_history(p)
-    assert d.step.tolist() == [10, 20, 30] and d.frame_step.tolist() == [20]
+    assert d.step.tolist() == [10, 20, 30] and d.frame_step.tolist() == [0, 20]
     with pytest.raises(FileNotFoundError, match="no history to resume"):
         io.History(tmp_path / "none.h5", resume_step=3)
 
@@ -523,8 +524,10 @@ def test_read_frame_is_load_of_that_frame_and_contacts_can_be_left_out(tmp_path)
         _run_with(model, state, 60, h)
     m = io.load_model(p)
     steps, times = io.frame_index(p)
-    assert steps.tolist() == [20, 40, 60] and times == pytest.approx(steps * model.options.dt)
-    for k in range(3):
+    _, start = io.load(p, frame=0)                  # frame 0: the state the run started from
+    assert _same(start.position, scene()[1].position)
+    assert steps.tolist() == [0, 20, 40, 60] and times == pytest.approx(steps * model.options.dt)
+    for k in range(1, 4):                       # (frame 0, the start, has no contacts)
         _, want = io.load(p, frame=k)
         got = io.read_frame(p, k, m)
         for name in ("position", "vel6", "link_impulse", "link_broken"):
@@ -540,9 +543,9 @@ def test_read_frame_is_load_of_that_frame_and_contacts_can_be_left_out(tmp_path)
     assert np.array_equal(arrays[1]["contact_force"], io.load(p, frame=0)[1].contacts.force)
     with pytest.raises(ValueError, match=r"unknown array\(s\) \['speed'\]"):
         list(io.frame_arrays(p, ["speed"]))
-    with pytest.raises(ValueError, match=r"frames \[3\] out of range: .* 0\.\.2"):
-        list(io.frame_arrays(p, ["position"], frames=[3]))
-    with pytest.raises(ValueError, match=r"frame must be an integer in \[-3, 2\]"):
+    with pytest.raises(ValueError, match=r"frames \[4\] out of range: .* 0\.\.3"):
+        list(io.frame_arrays(p, ["position"], frames=[4]))
+    with pytest.raises(ValueError, match=r"frame must be an integer in \[-4, 3\]"):
         io.read_frame(p, 7, m)
 
 

@@ -24,6 +24,7 @@ def test_demo_writes_what_it_promises(demo):
     # one PVD time per history frame, with the history's frame times
     times = sorted({f["timestep"] for f in frames})
     np.testing.assert_array_equal(times, h.frame_time)
+    assert h.frame_step[0] == 0 and times[0] == 0.0      # the series starts at the start
     import imageio.v3 as iio                   # the demo's movie: one picture per frame
     movie = iio.imread(demo / "wire.mp4")
     assert movie.shape == (h.n_frames, 600, 800, 3) and movie.std() > 5

@@ -52,6 +52,7 @@ def test_frames_share_the_colour_scale_of_the_whole_series(history, tmp_path, mo
     assert lo == 0.0 and hi == pytest.approx(tmax, rel=1e-12)
     per_frame = [render.value_range(*io.load(history, frame=k), "wire")[1] for k in range(n)]
     assert max(per_frame) == hi and min(per_frame) < hi          # frames differ
+    assert per_frame[0] == 0.0            # frame 0, the start state: a slack wire, (0, 0)
     seen = []
     real = render.snapshot
 

@@ -50,13 +50,13 @@ def result(tmp_path_factory):
 
 def test_pvd_timesteps_are_state_times(result):
     out, writer, model, state, summary, times, _ = result
-    assert summary.steps == 20 and writer.frames == 4
+    assert summary.steps == 20 and writer.frames == 5     # the start state, then 5 ... 20
     entries = read_pvd(writer.pvd_path)
     spheres = [e for e in entries if e["part"] == 0]
-    assert [e["timestep"] for e in spheres] == times  # exact: written with repr
+    assert [e["timestep"] for e in spheres] == [0.0, *times]  # exact: written with repr
     assert all(e["file"].is_file() for e in entries)
-    # every frame of this run has contacts, so each timestep has both parts
-    assert [e["timestep"] for e in entries if e["part"] == 1] == times
+    # each timestep has both parts (the start's contacts part is empty)
+    assert [e["timestep"] for e in entries if e["part"] == 1] == [0.0, *times]
 
 
 def test_sphere_vtu(result):
@@ -116,7 +116,7 @@ def test_wire_links_are_written_with_tension_and_broken_flag(tmp_path):
     writer = SeriesWriter(tmp_path, every=10, name="w")
     run(model, state, 200, writers=[writer], progress=False)
     wires = [e for e in read_pvd(writer.pvd_path) if e["part"] == 2]
-    assert len(wires) == 20
+    assert len(wires) == 21                                  # the start, then every 10 steps
     mesh = meshio.read(wires[-1]["file"])
     lines = mesh.cells_dict["line"]
     assert lines.shape == (2, 2)

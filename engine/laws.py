@@ -179,7 +179,8 @@ def wire_law(name, *, stiffness=None, prestrain=None, max_tension=None) -> WireL
                                ("max_tension", max_tension)) if v is not None}
     if name == "none":
         if given:
-            raise ValueError(f"{', '.join(given)}: the wire is 'none' (sand only)")
+            raise ValueError("; ".join(f"{k} = {v!r}: the wire is 'none' (sand only)"
+                                       for k, v in given.items()))
         return None
     cls = WIRE_LAWS[name]
     for field, v in given.items():

@@ -65,9 +65,11 @@ def _run_file_tables():
             top["seed"] = draw(ANYTHING) if hostile(0.4) else draw(st.integers(0, 2**62))
         if hostile(0.3):
             top["wire"] = draw(st.dictionaries(
-                st.sampled_from(["law", "stiffness", "neighbour_contact", "lw"]),
-                st.one_of(PLAUSIBLE, ANYTHING, st.sampled_from(["elastic", "rigid", "none"])),
-                max_size=2))
+                st.sampled_from(["law", "stiffness", "prestrain", "max_tension",
+                                 "neighbour_contact", "lw"]),
+                st.one_of(PLAUSIBLE, ANYTHING, st.sampled_from(
+                    ["elastic", "rigid", "elastic_rod", "rigid_rod", "brittle", "none"])),
+                max_size=3))
         cls = cli._PARAMS.get(test) if isinstance(test, str) else None
         names = sorted(cls.model_fields) if cls is not None else ["dt", "steps"]
         keys = draw(st.lists(st.one_of(st.sampled_from(names), st.sampled_from(names),
@@ -115,6 +117,9 @@ def _run_file_property(tables):
     assert cfg.test in cli._PARAMS and type(cfg.seed) is int and 0 <= cfg.seed < 2**63
     assert cfg.scale is None or (type(cfg.scale) is float and 0 < cfg.scale <= 1)
     assert type(cfg.wire.neighbour_contact) is bool
+    from engine import laws
+    law = cfg.wire.wire_law()                     # every accepted [wire] builds its law
+    assert law is None if cfg.wire.law == "none" else type(law) is laws.WIRE_LAWS[cfg.wire.law]
     for name, v in p.model_dump().items():
         ann = type(p).model_fields[name].annotation
         if v is None:

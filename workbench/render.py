@@ -53,6 +53,7 @@ from pathlib import Path
 import numpy as np
 
 from . import meshes
+from .units import reading_unit
 
 __all__ = ["PRESETS", "CAMERAS", "snapshot", "plotter", "theme", "set_camera", "add_beads",
            "add_wire", "add_forces", "add_torus", "add_walls", "headless_backend", "revolved_map",
@@ -270,9 +271,14 @@ def add_beads(pl, model, state, *, walls: bool = True, wall_opacity: float = 0.1
                                    loc="upper right", name="kind_legend")
             _black_legend_text(legend, [col for _, col in entries])
         elif color_by in ("speed", "group"):
-            title = "speed [m/s]" if color_by == "speed" else "group"
             if clim is None:  # explicit: the point-Gaussian mapper's bar would show 0-1
                 clim = _span(part.point_data[color_by])
+            title = "group"
+            if color_by == "speed":                         # mm/s, µm/s ... for reading
+                f, unit = reading_unit("m/s", max(abs(clim[0]), abs(clim[1])))
+                part = dataclasses.replace(part, point_data=dict(
+                    part.point_data, speed=part.point_data["speed"] * f))
+                clim, title = (clim[0] * f, clim[1] * f), f"speed [{unit}]"
             _spheres(pl, part, "beads", scalars=color_by, cmap=cmap, clim=clim,
                      show_scalar_bar=True, scalar_bar_args=_bar(title))
         else:
@@ -372,11 +378,13 @@ def add_wire(pl, model, state, *, max_radius: float | None = None, slack: float 
         tubes = _tube_lines(part, t, rad, mask, n_sides)
         if tubes is not None:
             pl.add_mesh(tubes, name=f"wire_{name}", show_scalar_bar=False, smooth_shading=True, **kw)
-    tubes = _tube_lines(part, t, rad, taut, n_sides)
     lim = clim if clim is not None else _from_zero(tmax)
+    f, unit = reading_unit("N", max(abs(lim[0]), abs(lim[1])))     # mN for a sand sample
+    tubes = _tube_lines(part, t * f, rad, taut, n_sides)
     if tubes is not None:
-        pl.add_mesh(tubes, scalars="value", cmap=cmap, clim=lim, name="wire_taut", smooth_shading=True,
-                    show_scalar_bar=True, scalar_bar_args=_bar("tension [N]"))
+        pl.add_mesh(tubes, scalars="value", cmap=cmap, clim=(lim[0] * f, lim[1] * f),
+                    name="wire_taut", smooth_shading=True, show_scalar_bar=True,
+                    scalar_bar_args=_bar(f"tension [{unit}]"))
     if beads:
         bp = meshes.bead_part(model, state)
         wb = _select(bp, bp.point_data["kind"] == meshes.BEAD_WIRE)
@@ -413,11 +421,13 @@ def add_forces(pl, model, state, *, strong: float = 1.0, max_radius: float | Non
                             cell_type="line", cells=np.arange(2 * idx.size).reshape(-1, 2))
         pl.add_mesh(lines.to_polydata(), color=WEAK_COLOR, line_width=1.0, lighting=False,
                     name="forces_weak", show_scalar_bar=False)
-    tubes = _tube_lines(part, fn, np.maximum(rad, thin), is_strong, n_sides)
     lim = clim if clim is not None else _from_zero(fmax)
+    f, unit = reading_unit("N", max(abs(lim[0]), abs(lim[1])))
+    tubes = _tube_lines(part, fn * f, np.maximum(rad, thin), is_strong, n_sides)
     if tubes is not None:
-        pl.add_mesh(tubes, scalars="value", cmap=cmap, clim=lim, name="forces_strong", smooth_shading=True,
-                    show_scalar_bar=True, scalar_bar_args=_bar("normal force [N]"))
+        pl.add_mesh(tubes, scalars="value", cmap=cmap, clim=(lim[0] * f, lim[1] * f),
+                    name="forces_strong", smooth_shading=True, show_scalar_bar=True,
+                    scalar_bar_args=_bar(f"normal force [{unit}]"))
 
 
 def _cylinder_of(model, state):
@@ -471,6 +481,10 @@ def add_torus(pl, model, state, *, cylinder=None, tmap=None, n_r: int = 5, n_z: 
     if tmap is None:
         cylinder, tmap = _torus_map(model, state, cylinder, n_r, n_z, part)
     values, title = _torus_values(tmap, field, part)
+    span = clim if clim is not None else _torus_span(values)
+    f, unit = reading_unit("Pa", max(abs(span[0]), abs(span[1])))      # kPa under 15 kPa
+    values, title = values * f, title.replace("[Pa]", f"[{unit}]")
+    clim = (span[0] * f, span[1] * f)
     re_, ze = np.asarray(tmap.r_edges, float), np.asarray(tmap.z_edges, float)
     lim = clim if clim is not None else _torus_span(values)
 

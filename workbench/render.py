@@ -386,10 +386,16 @@ def add_wire(pl, model, state, *, max_radius: float | None = None, slack: float 
                     name="wire_taut", smooth_shading=True, show_scalar_bar=True,
                     scalar_bar_args=_bar(f"tension [{unit}]"))
     if beads:
+        import pyvista as pv
+
         bp = meshes.bead_part(model, state)
         wb = _select(bp, bp.point_data["kind"] == meshes.BEAD_WIRE)
         if wb.n_points:
-            _spheres(pl, wb, "wire_beads", color=WIRE_COLOR, opacity=0.25)
+            # faint sphere meshes: translucent point-Gaussian impostors were drawn as opaque
+            # black discs (issue 29 item 3)
+            ball = pv.Sphere(radius=1.0, theta_resolution=12, phi_resolution=8)
+            pl.add_mesh(wb.to_polydata().glyph(geom=ball, scale="radius", orient=False),
+                        color=WIRE_COLOR, opacity=0.25, smooth_shading=True, name="wire_beads")
 
 
 def add_forces(pl, model, state, *, strong: float = 1.0, max_radius: float | None = None,

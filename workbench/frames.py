@@ -181,8 +181,8 @@ def write_movie(history, path, *, frames="all", preset: str = "beads", camera="i
         extra["bounds"] = bounds
     path.parent.mkdir(parents=True, exist_ok=True)
     kw = dict(fps=fps, codec="libx264", quality=7, pixelformat="yuv420p",
-              macro_block_size=2) if path.suffix.lower() == ".mp4" else dict(duration=1.0 / fps,
-                                                                             loop=0)
+              macro_block_size=2) if path.suffix.lower() == ".mp4" else \
+        dict(duration=1000.0 / fps, loop=0)     # Pillow's GIF duration is in ms (1/fps s: 0)
     tmp = path.with_name(f".{path.name}.part{path.suffix}")
     try:
         with imageio.get_writer(tmp, **kw) as writer:

@@ -91,6 +91,11 @@ def test_a_movie_has_every_frame_at_the_window_size(history, tmp_path, suffix):
                               window_size=(321, 240), fps=5, progress=False)
     movie = iio.imread(path)
     assert movie.shape == (n, 240, 320, 3)        # (even width for H.264 and the GIF alike)
+    if suffix == ".gif":                          # 5 frames a second: 200 ms each
+        from PIL import Image
+        gif = Image.open(path)
+        gif.seek(1)
+        assert gif.info["duration"] == 200
     assert movie.std() > 5                         # not a blank picture
     assert not any(p.name.startswith(".") for p in tmp_path.iterdir())   # no part file left
     with pytest.raises(ValueError, match="must end in .mp4 or .gif"):

@@ -108,14 +108,17 @@ def common_bounds(history, frames):
 
 
 def _plan(history, frames, preset, clim, options):
+    """(the frame indices, the options every one of them is drawn with: the common colour
+    limits and camera box when there are several)."""
     from engine import io
 
-    n = io.frame_count(history)
-    picked = parse_frames(frames, n)
+    picked = parse_frames(frames, io.frame_count(history))
     if clim is None and len(picked) > 1:
         clim = common_clim(history, preset, picked, **options)
-    bounds = common_bounds(history, picked) if len(picked) > 1 and preset != "torus" else None
-    return picked, clim, bounds
+    fixed = {} if clim is None else {"clim": clim}
+    if len(picked) > 1 and preset != "torus":
+        fixed["bounds"] = common_bounds(history, picked)
+    return picked, {**options, **fixed}
 
 
 def _progress(it, total, desc, progress):
@@ -139,19 +142,15 @@ def render_frames(history, out, *, frames=-1, preset: str = "beads", camera="iso
 
     from .render import WINDOW_SIZE, snapshot
 
-    picked, clim, bounds = _plan(history, frames, preset, clim, options)
+    picked, opts = _plan(history, frames, preset, clim, options)
     size = WINDOW_SIZE if window_size is None else window_size
-    extra = {} if clim is None else {"clim": clim}
-    if bounds is not None:
-        extra["bounds"] = bounds
     out = Path(out)
     paths = []
     for k in _progress(picked, len(picked), "render", progress and len(picked) > 1):
         model, state = io.load(history, frame=k)
         target = out if len(picked) == 1 else out / f"frame_{k:04d}.png"
         paths.append(snapshot(model, state, target, preset=preset, camera=camera,
-                              window_size=size,
-                              **_frame_options(model, state, preset, {**options, **extra})))
+                              window_size=size, **_frame_options(model, state, preset, opts)))
     return paths
 
 
@@ -173,12 +172,9 @@ def write_movie(history, path, *, frames="all", preset: str = "beads", camera="i
                          f"{' or '.join(MOVIE_SUFFIXES)}")
     if not (isinstance(fps, (int, float)) and not isinstance(fps, bool) and 0 < fps <= 120):
         raise ValueError(f"fps must be a number in (0, 120], got {fps!r}")
-    picked, clim, bounds = _plan(history, frames, preset, clim, options)
+    picked, opts = _plan(history, frames, preset, clim, options)
     w, h = WINDOW_SIZE if window_size is None else window_size
     w, h = int(w) // 2 * 2, int(h) // 2 * 2          # H.264 wants even sizes
-    extra = {} if clim is None else {"clim": clim}
-    if bounds is not None:
-        extra["bounds"] = bounds
     path.parent.mkdir(parents=True, exist_ok=True)
     kw = dict(fps=fps, codec="libx264", quality=7, pixelformat="yuv420p",
               macro_block_size=2) if path.suffix.lower() == ".mp4" else \
@@ -189,7 +185,7 @@ def write_movie(history, path, *, frames="all", preset: str = "beads", camera="i
             for k in _progress(picked, len(picked), "movie", progress):
                 model, state = io.load(history, frame=k)
                 pl = plotter(model, state, preset, camera=camera, window_size=(w, h),
-                             **_frame_options(model, state, preset, {**options, **extra}))
+                             **_frame_options(model, state, preset, opts))
                 try:
                     writer.append_data(pl.screenshot(None, return_img=True,
                                                      transparent_background=False))

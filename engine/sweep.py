@@ -131,8 +131,10 @@ def _law(wire, k, prestrain=None, max_tension=None):
     ``k`` its stiffness [N], and the law's ``prestrain`` and ``max_tension``."""
     from . import laws
 
-    wire = {True: "elastic", False: "none", None: "none"}.get(wire, wire) \
-        if isinstance(wire, (bool, type(None))) else wire
+    if wire is True:
+        wire = "elastic"
+    elif wire is False or wire is None:
+        wire = "none"
     if k is not None:
         try:
             k = float(k)

@@ -43,7 +43,7 @@ from ..drivers import Confinement
 from ..prep import Box, Cylinder, box_sample, cylinder_sample
 from ..scene import Scene
 from .params import check_args
-from .common import (ConfinementError, Recorder, Stages, TestResult, check_positive, check_scale,
+from .common import (ConfinementError, Recorder, Stages, TestResult, check_scale,
                      choose_rate, finish, history_writer, run_meta, solver_choice,
                      wire_law_or_default)
 
@@ -452,7 +452,7 @@ def box_triaxial(scale: float = 0.05, *, pressure: float = 15e3, wire: bool = Tr
     rate, I = choose_rate(strain_rate, p, d_mean, 2650.0, target_I=target_I,
                           allow_dynamic=allow_dynamic)
     m_sample = model_mass(sample)
-    wall_mass = 0.2 * m_sample if wall_mass is None else check_positive("wall_mass", wall_mass, "[kg]")
+    wall_mass = 0.2 * m_sample if wall_mass is None else float(wall_mass)   # (checked: BoxParams)
     floor = sc.add_plane(point=(0, 0, lo[2]), normal=(0, 0, 1), group="wall")
     p_now = _Pressure()
     top = sc.add_plane(point=(0, 0, lo[2] + top_z), normal=(0, 0, -1), group="wall")

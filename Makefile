@@ -7,9 +7,10 @@ STAMP  := $(VENV)/.installed
 # System packages (Debian/Ubuntu, installed with apt when missing; see `make sysdeps`):
 #  off-screen rendering: EGL + Mesa's llvmpipe software GL (OSMesa as the fallback), used by
 #  the VTK wheel when there is no display (workbench/render.py);
-#  ParaView's pvpython (tests/workbench/test_paraview.py reads every PVD with it).
+#  ParaView's pvpython (tests/workbench/test_paraview.py reads every PVD with it, and runs the
+#  exported open_in_paraview.py under xvfb-run: Debian's build renders only with an X server).
 APT_RENDER   := libegl1 libegl-mesa0 libgl1-mesa-dri libosmesa6
-APT_PARAVIEW := paraview python3-paraview
+APT_PARAVIEW := paraview python3-paraview xvfb xauth
 #  Chromium for the browser tests of `nscd view` (tests/workbench/test_view.py drives it with
 #  Playwright for Python through its executable_path: no browser download at run time).
 APT_BROWSER  := chromium

@@ -8,7 +8,10 @@
                                              its live viewer)
     nscd render RUN.h5 [--frames N|A:B|all] [--preset beads|wire|forces|torus] [--camera ...]
                [--window-size WxH] [--clim LO,HI] [--out PNG|DIR] [--movie FILE.mp4|.gif]
-    nscd export RUN.h5 OUTDIR                every frame of a history as VTU + a PVD
+    nscd export RUN.h5 OUTDIR                every frame of a history as VTU + a PVD, with
+                                             each frame's step, time, strain and stresses
+                                             as field data, and OUTDIR/open_in_paraview.py
+                                             (paraview --script=...: the pipeline built)
     nscd info RUN.h5                         what a checkpoint or history holds
     nscd view PATH [--port N] [--host H] [--follow] [--mode server|client]
                                              the interactive viewer in the browser: a
@@ -207,26 +210,11 @@ def run_config(cfg: RunConfig, params: BaseModel, out: Path, progress=True):
 # ---------------------------------------------------------------- outputs of a run
 
 def export_series(history, outdir, *, name="frame", progress=True) -> Path:
-    """Every frame of a history file as VTU + a PVD collection; returns the PVD path."""
-    from engine import io
-    from .series import SeriesWriter
+    """Every frame of a history file as VTU + a PVD collection + ``open_in_paraview.py``;
+    returns the PVD path (:func:`workbench.series.export_history`, where it lives now)."""
+    from .series import export_history
 
-    data = io.read_history(history, frames=False)
-    import h5py  # noqa: F401  (read_history already imported it)
-    n = _n_frames(history)
-    if n == 0:
-        raise ValueError(f"{history}: the history holds no frame (run with frames > 0)")
-    w = SeriesWriter(outdir, every=1, name=name)
-    it = range(n)
-    if progress:
-        from tqdm.auto import tqdm
-        it = tqdm(it, unit="frame", desc="export")
-    for k in it:
-        model, state = io.load(history, frame=k)
-        w.write(model, state)
-    w.flush()
-    del data
-    return w.pvd_path
+    return export_history(history, outdir, name=name, progress=progress)
 
 
 def _n_frames(path) -> int:
@@ -323,11 +311,13 @@ def cmd_demo(a) -> int:
 
     paths.append(write_movie(res.history, out / "wire.mp4", preset="wire", fps=12))
     pvd = export_series(res.history, out / "series", name="cylinder")
-    print("wrote:\n  " + "\n  ".join(str(p) for p in [out / "run.h5", *paths, pvd]))
+    print("wrote:\n  " + "\n  ".join(str(p) for p in [out / "run.h5", *paths, pvd,
+                                                      pvd.parent / "open_in_paraview.py"]))
     code = _interrupted(res, "demo")
     if code == 0:
         print(f"explore it in 3D (rotate, scrub the frames, clip, pick; in a browser):\n"
               f"  nscd view {out / 'run.h5'}     (.venv/bin/nscd from a fresh clone)")
+        print(_paraview_hint(pvd))
     return code
 
 
@@ -442,8 +432,17 @@ def cmd_render(a) -> int:
     return 0
 
 
+def _paraview_hint(pvd) -> str:
+    from .paraview_state import SCRIPT_NAME
+
+    return (f"open it in ParaView with the pipeline built (beads, wire tension, force chains, "
+            f"walls):\n  paraview --script={Path(pvd).parent / SCRIPT_NAME}")
+
+
 def cmd_export(a) -> int:
-    print(export_series(a.run, a.outdir, name=a.name))
+    pvd = export_series(a.run, a.outdir, name=a.name)
+    print(pvd)
+    print(_paraview_hint(pvd))
     return 0
 
 
@@ -586,7 +585,9 @@ def parser() -> argparse.ArgumentParser:
                    help="every frame (or --frames) into one movie instead of PNGs")
     g.add_argument("--fps", type=float, default=10.0, help="movie frames per second (default 10)")
     g.set_defaults(fn=cmd_render)
-    e = sub.add_parser("export", help="export every frame of a history to a ParaView series")
+    e = sub.add_parser("export", help="export every frame of a history to a ParaView series "
+                       "and OUTDIR/open_in_paraview.py (paraview --script=OUTDIR/"
+                       "open_in_paraview.py opens it with the pipeline built)")
     e.add_argument("run", help="history file (.h5) written by a run")
     e.add_argument("outdir", help="directory for the VTU files and the PVD collection")
     e.add_argument("--name", default="frame", help="file stem")

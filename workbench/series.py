@@ -33,6 +33,24 @@ scaled by ``radius``), part 1 as lines coloured by ``normal_force``, part 2 colo
 ``tension``, part 3 with some opacity.  ``tests/workbench/test_paraview.py`` opens the
 series with ParaView's own reader (``pvpython``).
 
+Every VTU of a frame also carries **field data** (ParaView: the spreadsheet view's "Field
+Data" attribute, or a Python Annotation): ``step`` (int64), ``time`` [s], one array
+``group:<name>`` per group holding its id (``group:sand`` = 0, ...: the names of the ids of
+the ``group`` arrays; integers, not a VTK string array, so that meshio still reads every
+file), and what the caller adds (:meth:`SeriesWriter.write`'s ``fields``).
+:func:`export_history` adds, for a test's history, its records at the frame's step (the
+extras ``stress``, ``sand_stress``, ``wire_stress`` (9 components, row-major 3x3) [Pa,
+tension positive], ``height`` [m], ``radius`` [m], ``volume`` [m^3], ``stage`` …) and for
+the triaxial tests ``axial_strain`` [-] (compression positive), ``deviator`` q [Pa],
+``mean_stress`` p [Pa] (compression positive) and ``wire_equivalent_stress`` ‖dev σ_w‖
+[Pa] (:func:`engine.analysis.loading_curves`; NaN before the loading, and every record
+value is NaN in a frame without a record at its step).  Numbers are stored in binary, so
+they read back as the exact same floats.
+
+:func:`export_history` (``nscd export``) and :meth:`SeriesWriter.close` also write
+``open_in_paraview.py`` beside the PVD (:mod:`workbench.paraview_state`): ParaView opens the
+series with the presets' pipeline in one command, ``paraview --script=open_in_paraview.py``.
+
 Each DataSet of the PVD carries ``name="beads"`` (``contacts``, ``wire``, ``walls``):
 ParaView (5.11) shows these as the block names.
 
@@ -41,6 +59,7 @@ uncompressed by default; ``compression="zlib"`` gives smaller, slower files).
 """
 from __future__ import annotations
 
+import base64
 import os
 from pathlib import Path
 from xml.sax.saxutils import quoteattr
@@ -51,7 +70,7 @@ import numpy as np
 from . import meshes
 
 __all__ = ["SeriesWriter", "sphere_mesh", "contact_mesh", "wire_mesh", "wall_mesh", "read_pvd",
-           "PARTS"]
+           "PARTS", "export_history", "frame_fields", "history_fields"]
 
 #: PVD part number of each kind of file.
 PARTS = {"beads": 0, "contacts": 1, "wire": 2, "walls": 3}
@@ -104,6 +123,9 @@ class SeriesWriter:
     compression : None, "zlib" or "lzma"
         Compression of the VTU data arrays (None: raw binary, the fastest to write; see
         ``bench/bench_render.py``).
+    state_script : bool
+        Write ``open_in_paraview.py`` beside the PVD on :meth:`flush` / :meth:`close`
+        (:mod:`workbench.paraview_state`), with colour limits over the frames written.
 
     Notes
     -----
@@ -114,7 +136,7 @@ class SeriesWriter:
     """
 
     def __init__(self, out_dir, every: int = 100, name: str = "frame", *, walls: bool = True,
-                 compression: str | None = None):
+                 compression: str | None = None, state_script: bool = True):
         if isinstance(every, bool) or not isinstance(every, (int, np.integer)) or every < 1:
             raise ValueError(f"every must be an integer >= 1, got {every!r}")
         if not isinstance(name, str) or not name or os.sep in name:
@@ -127,8 +149,13 @@ class SeriesWriter:
         self.name = name
         self.walls = bool(walls)
         self.compression = compression
+        self.state_script = bool(state_script)
         self.frames = 0
         self._entries: list[tuple[float, int, str]] = []  # (time [s], part, file)
+        #: {(part, array): [min, max]} over the frames written (the state script's limits)
+        self.ranges: dict[tuple[str, str], list[float]] = {}
+        self._sizes: dict[str, float] = {}   # typical sizes [m] for the state script
+        self._fields: set[str] = set()       # field data names written
 
     @property
     def pvd_path(self) -> Path:
@@ -158,22 +185,65 @@ class SeriesWriter:
         if self.frames == 0:
             self.write(model, state)
 
-    def write(self, model, state) -> None:
-        """Write the frame of ``state`` (one VTU per part) and rewrite the PVD."""
+    def write(self, model, state, fields: dict | None = None) -> None:
+        """Write the frame of ``state`` (one VTU per part) and rewrite the PVD.
+
+        ``fields``: more field data for every part of this frame, ``{name: number or
+        array}`` (numbers; one tuple of ``array.size`` components), besides ``step``,
+        ``time`` and the group names (:func:`frame_fields`)."""
         t = float(state.time)
+        fd = {**frame_fields(model, state), **(fields or {})}
+        self._fields.update(fd)
+        xml = _field_data_xml(fd, self.compression)
         for key, part in self.frame_parts(model, state).items():
             infix = "" if key == "beads" else f"_{key}"
             stem = f"{self.name}{infix}_{self.frames:06d}.vtu"
-            meshio.write(self.out_dir / stem, part.to_meshio(), file_format="vtu",
-                         compression=self.compression)
+            path = self.out_dir / stem
+            meshio.write(path, part.to_meshio(), file_format="vtu", compression=self.compression)
+            _insert_field_data(path, xml)
             self._entries.append((t, PARTS[key], stem))
+            self._track(key, part)
+        if not self._sizes and model.sphere_ids.size:
+            r = model.body_radius[model.sphere_ids]
+            self._sizes = {"mean_radius": float(r.mean())}
+            if model.n_links:
+                from .meshes import bead_kind, BEAD_WIRE
+                wire = model.sphere_ids[bead_kind(model)[model.sphere_ids] == BEAD_WIRE]
+                if wire.size:
+                    self._sizes["bead_radius"] = float(model.body_radius[wire].mean())
         self.frames += 1
         self._write_pvd()
 
+    def _track(self, key, part) -> None:
+        for kind, data in (("point", part.point_data), ("cell", part.cell_data)):
+            for name, a in data.items():
+                a = np.asarray(a)
+                if a.size == 0 or a.dtype.kind not in "fiub":
+                    continue
+                v = np.linalg.norm(a, axis=1) if a.ndim == 2 else a
+                v = v[np.isfinite(v)]
+                if not v.size:
+                    continue
+                lo, hi = float(v.min()), float(v.max())
+                r = self.ranges.setdefault((key, name), [lo, hi])
+                r[0], r[1] = min(r[0], lo), max(r[1], hi)
+
     def flush(self) -> None:
-        """Rewrite the PVD collection (it is already rewritten after every frame)."""
+        """Rewrite the PVD collection (it is already rewritten after every frame) and the
+        ParaView state script (``state_script``)."""
         if self._entries:
             self._write_pvd()
+            if self.state_script:
+                self.write_state_script()
+
+    def write_state_script(self, path=None) -> Path:
+        """Write ``open_in_paraview.py`` (or ``path``) for this series: see
+        :func:`workbench.paraview_state.write_state_script`."""
+        from .paraview_state import write_state_script
+
+        return write_state_script(self.pvd_path, path, ranges=self.ranges, sizes=self._sizes,
+                                  parts=sorted({_NAMES[p] for _, p, _ in self._entries},
+                                               key=PARTS.get), fields=self._fields)
 
     def close(self) -> None:
         self.flush()
@@ -206,3 +276,111 @@ def read_pvd(path) -> list[dict]:
     root = ET.parse(path).getroot()
     return [{"timestep": float(d.get("timestep")), "part": int(d.get("part", 0)),
              "file": path.parent / d.get("file")} for d in root.iter("DataSet")]
+
+
+def frame_fields(model, state) -> dict:
+    """The field data of every frame: ``step``, ``time`` [s] and ``group:<name>`` = the
+    group's id, for each group of the model."""
+    out = {"step": np.array([int(state.step)], np.int64), "time": np.array([float(state.time)])}
+    out.update({f"group:{g}": np.array([k], np.int64) for k, g in enumerate(model.group_names)})
+    return out
+
+
+_VTU_TYPES = {"f": "Float64", "i": "Int64", "u": "Int64", "b": "Int64"}
+
+
+def _encode(a: np.ndarray, compression) -> str:
+    """A VTK XML ``format="binary"`` payload: base64 header (UInt32, meshio's header type)
+    and data, raw or compressed as the file's ``compressor`` says (one block)."""
+    raw = a.tobytes()
+    if compression is None:
+        return (base64.b64encode(np.uint32(len(raw)).tobytes())
+                + base64.b64encode(raw)).decode()
+    if compression == "zlib":
+        import zlib
+        comp = zlib.compress(raw)
+    else:
+        import lzma
+        comp = lzma.compress(raw)
+    head = np.array([1, len(raw), len(raw), len(comp)], np.uint32)
+    return (base64.b64encode(head.tobytes()) + base64.b64encode(comp)).decode()
+
+
+def _field_data_xml(fields: dict, compression) -> bytes:
+    rows = []
+    for name, v in fields.items():
+        a = np.ravel(np.asarray(v))
+        if a.size == 0 or a.dtype.kind not in _VTU_TYPES:
+            continue
+        vt = _VTU_TYPES[a.dtype.kind]
+        a = np.ascontiguousarray(a, "<f8" if vt == "Float64" else "<i8")
+        rows.append(f'<DataArray type="{vt}" Name={quoteattr(name)} NumberOfComponents='
+                    f'"{a.size}" NumberOfTuples="1" format="binary">'
+                    f'{_encode(a, compression)}</DataArray>')
+    return ("<FieldData>\n" + "\n".join(rows) + "\n</FieldData>\n").encode()
+
+
+def _insert_field_data(path: Path, xml: bytes) -> None:
+    """Put the ``<FieldData>`` block first in the ``<UnstructuredGrid>`` of a VTU meshio
+    wrote (meshio writes no field data to VTU)."""
+    data = path.read_bytes()
+    tag = b"<UnstructuredGrid>"
+    i = data.find(tag)
+    if i < 0:
+        raise RuntimeError(f"{path}: no <UnstructuredGrid> element (not meshio's VTU?)")
+    i += len(tag)
+    tmp = path.with_suffix(".vtu.tmp")
+    tmp.write_bytes(data[:i] + b"\n" + xml + data[i:])
+    os.replace(tmp, path)
+
+
+def history_fields(history) -> tuple[np.ndarray, dict]:
+    """(the step of each record, ``{name: (n_records, ...) array}``): what
+    :func:`export_history` writes as field data for the frame recorded at a step (see the
+    module doc); ``({}, {})``-like empty arrays for a checkpoint."""
+    from engine import io
+    from engine.analysis import loading_curves
+
+    try:
+        rec = io.read_history(history, frames=False)
+    except io.FormatError:
+        return np.zeros(0, np.int64), {}
+    out = {k: np.asarray(v) for k, v in rec.extra.items()
+           if np.asarray(v).dtype.kind in "fiub"}
+    lc = loading_curves(rec)
+    if lc is not None:
+        out.update(axial_strain=lc["strain"], deviator=lc["deviator"],
+                   mean_stress=lc["mean_stress"])
+        if "wire_stress" in rec.extra:
+            out["wire_equivalent_stress"] = lc["wire_equivalent"]
+    return np.asarray(rec.step, np.int64), out
+
+
+def export_history(history, outdir, *, name: str = "frame", progress: bool = True,
+                   compression: str | None = None) -> Path:
+    """Every frame of a history file as VTU + a PVD collection + ``open_in_paraview.py``
+    (``nscd export``); returns the PVD path.  Each frame's field data carry the test's
+    records at its step (module doc)."""
+    from engine import io
+
+    n = io.frame_count(history)
+    if n == 0:
+        raise ValueError(f"{history}: the history holds no frame (run with frames > 0)")
+    steps, fields = history_fields(history)
+    w = SeriesWriter(outdir, every=1, name=name, compression=compression)
+    it = range(n)
+    if progress:
+        from tqdm.auto import tqdm
+        it = tqdm(it, unit="frame", desc="export")
+    for k in it:
+        model, state = io.load(history, frame=k)
+        at = np.flatnonzero(steps == int(state.step))
+        extra = {}
+        for key, v in fields.items():
+            if at.size:
+                extra[key] = v[at[-1]]
+            else:
+                extra[key] = np.full(v.shape[1:] or (1,), np.nan)
+        w.write(model, state, fields=extra)
+    w.close()
+    return w.pvd_path

@@ -10,11 +10,13 @@
   cylinder's outer particles;
 * :func:`toroidal_map` — Weber stress on (r, z) torus cells (Fig. 13c);
 * :func:`macro_stiffness` — H, the slope of the linear part of (ε_zz, σ_w^eq) (Table 2);
+  :func:`loading_curves` — axial strain, q, p and the wire's stress per record of a
+  triaxial test's history;
 * :func:`slope_profile` — h(r), floor pressure p(r), regressions, maximum slope (Fig. 10);
 * :mod:`engine.analysis.wire` — wire length density, orientation tensor, direction
   histograms (Fig. 8-9), tortuosity (Fig. 7).
 """
-from .curves import MacroStiffness, macro_stiffness
+from .curves import MacroStiffness, loading_curves, macro_stiffness
 from .network import (ForceNetwork, box_strain, cylinder_strain, force_network, wall_forces,
                       wall_stress)
 from .profiles import SlopeProfile, max_slope, slope_profile
@@ -26,7 +28,7 @@ from .wire import (WireStats, direction_histogram, length_density, orientation_t
 
 __all__ = ["weber_stress", "equivalent_stress", "principal", "StressResult", "best_fit_strain",
            "StrainResult", "force_network", "ForceNetwork", "wall_forces", "toroidal_map",
-           "ToroidalMap", "macro_stiffness", "MacroStiffness", "slope_profile", "SlopeProfile",
+           "ToroidalMap", "macro_stiffness", "loading_curves", "MacroStiffness", "slope_profile", "SlopeProfile",
            "max_slope",
            "wall_stress", "box_strain", "cylinder_strain", "wire_chains", "wire_length",
            "length_density", "orientation_tensor", "direction_histogram", "tortuosity",

@@ -56,3 +56,45 @@ def macro_stiffness(strain, stress, *, rel_tol: float = 0.01, min_points: int = 
                                   start_point=(float(e[start]), float(s[start])), r2=r2,
                                   rel_rms=rel)
     raise ValueError(f"no final range of >= {min_points} points is linear within {rel_tol:.0%}")
+
+
+def loading_curves(records) -> dict | None:
+    """The triaxial curves of a test's recorded history, one value per record, in SI units:
+    ``{"strain", "deviator", "mean_stress", "wire_equivalent", "loading"}``.
+
+    ``records`` is an :class:`engine.io.HistoryData` (or anything with ``time`` and an
+    ``extra`` dict) of a triaxial test: extras ``stress`` (n, 3, 3) [Pa, tension positive],
+    ``height`` [m], ``stage`` (0 isotropic, >= 1 loading) and optionally ``wire_stress``.
+    The loading starts from the last isotropic record (as the tests'
+    :class:`~engine.experiments.common.TestResult` curves do): there, axial strain
+    ``1 - H/H0`` is 0.  ``strain`` [-] (compression positive), ``deviator`` q = σ_a − σ_r
+    [Pa] and ``mean_stress`` p = −tr σ / 3 [Pa] (compression positive) and
+    ``wire_equivalent`` ‖dev σ_w‖ [Pa] are NaN before it; ``loading`` is the (k,) index
+    array of the records from that one on.  ``None`` for a history that is not a triaxial
+    test's (no ``stress`` / ``height`` extras, or no loading record)."""
+    from .stress import equivalent_stress
+
+    ex = getattr(records, "extra", {}) or {}
+    n = len(np.asarray(records.time))
+    if "stress" not in ex or "height" not in ex or n == 0:
+        return None
+    s = np.asarray(ex["stress"], float)
+    h = np.asarray(ex["height"], float)
+    stage = np.asarray(ex.get("stage", np.zeros(n)), int)
+    load = np.flatnonzero(stage >= 1)
+    if not load.size:
+        return None
+    first = max(int(load[0]) - 1, 0)
+    sel = np.arange(first, n)
+    out = {k: np.full(n, np.nan) for k in ("strain", "deviator", "mean_stress",
+                                           "wire_equivalent")}
+    out["strain"][sel] = 1.0 - h[sel] / h[first]
+    sa = -s[sel, 2, 2]
+    sr = -(s[sel, 0, 0] + s[sel, 1, 1]) / 2.0
+    out["deviator"][sel] = sa - sr
+    out["mean_stress"][sel] = -np.trace(s[sel], axis1=1, axis2=2) / 3.0
+    if "wire_stress" in ex:
+        w = np.asarray(ex["wire_stress"], float)
+        out["wire_equivalent"][sel] = [equivalent_stress(x) for x in w[sel]]
+    out["loading"] = sel
+    return out

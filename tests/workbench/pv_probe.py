@@ -1,6 +1,7 @@
 """Run by ``pvpython`` (ParaView's Python), not by pytest: open each PVD given on the
 command line with ParaView's PVD reader and dump, for every time step the reader reports,
-every block's name, point and cell counts and the range of each component of each array.
+every block's name, point and cell counts, the range of each component of each array and
+its field data (every value).
 
     pvpython pv_probe.py OUT.json A.pvd [B.pvd ...]
 """
@@ -32,6 +33,19 @@ def arrays(data):
     return out
 
 
+def fields(data):
+    """Field data of a dataset: {name: list of values} (strings for string arrays)."""
+    out = {}
+    for a in range(data.GetNumberOfArrays()):
+        arr = data.GetAbstractArray(a)
+        if arr.IsNumeric():
+            out[arr.GetName()] = [arr.GetComponent(0, c)
+                                  for c in range(arr.GetNumberOfComponents())]
+        else:
+            out[arr.GetName()] = [arr.GetValue(i) for i in range(arr.GetNumberOfValues())]
+    return out
+
+
 def probe(path):
     reader = PVDReader(FileName=path)
     times = [float(t) for t in reader.TimestepValues]
@@ -45,11 +59,12 @@ def probe(path):
             ds = leaf(mb.GetBlock(b))
             if ds is None:
                 blocks.append({"name": name, "points": 0, "cells": 0, "point_data": {},
-                               "cell_data": {}, "class": None})
+                               "cell_data": {}, "field_data": {}, "class": None})
                 continue
             blocks.append({"name": name, "class": ds.GetClassName(),
                            "points": ds.GetNumberOfPoints(), "cells": ds.GetNumberOfCells(),
                            "bounds": list(ds.GetBounds()) if ds.GetNumberOfPoints() else None,
+                           "field_data": fields(ds.GetFieldData()),
                            "point_data": arrays(ds.GetPointData()),
                            "cell_data": arrays(ds.GetCellData())})
         frames.append({"time": t, "blocks": blocks})

@@ -39,6 +39,9 @@ def test_info_render_export(demo, tmp_path, capsys):
     assert (tmp_path / "f.png").stat().st_size > 1000
     assert cli.main(["export", str(demo / "run.h5"), str(tmp_path / "s")]) == 0
     assert (tmp_path / "s" / "frame.pvd").exists()
+    out = capsys.readouterr().out                # says how to open it, and the script is there
+    assert f"paraview --script={tmp_path / 's' / 'open_in_paraview.py'}" in out
+    assert (tmp_path / "s" / "open_in_paraview.py").exists()
 
 
 @pytest.mark.parametrize("toml, expected", [

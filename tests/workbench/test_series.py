@@ -173,3 +173,41 @@ def test_frame_without_contacts_keeps_its_contacts_part(tmp_path):
     for name in ("normal_force", "tangential_force", "force", "kind"):
         assert f'Name="{name}"' in text
     assert 'name="contacts"' in w.pvd_path.read_text()
+
+
+@pytest.mark.parametrize("compression", [None, "zlib", "lzma"])
+def test_field_data_read_back_exactly(tmp_path, compression):
+    """Every part of a frame carries step, time, the group ids by name and the caller's
+    fields, stored in binary (raw or compressed as the file's arrays are): meshio reads the
+    very same numbers back, NaN included."""
+    model, state = _scene()
+    run(model, state, 3, progress=False)
+    w = SeriesWriter(tmp_path, name="f", compression=compression)
+    sigma = np.arange(9.0).reshape(3, 3) / 7.0
+    w.write(model, state, fields={"stress": sigma, "axial_strain": np.nan, "stage": 1})
+    for e in read_pvd(w.pvd_path):
+        fd = {k: np.ravel(v) for k, v in meshio.read(e["file"]).field_data.items()}
+        assert fd["step"].tolist() == [state.step] and fd["time"].tolist() == [state.time]
+        assert {k: v.tolist() for k, v in fd.items() if k.startswith("group:")} == \
+            {f"group:{g}": [i] for i, g in enumerate(model.group_names)}
+        assert fd["stress"].tolist() == sigma.ravel().tolist()
+        assert np.isnan(fd["axial_strain"]).all() and fd["stage"].tolist() == [1]
+
+
+def test_state_script_is_written_beside_the_pvd(tmp_path):
+    """close() writes open_in_paraview.py with the colour limits of the frames written."""
+    model, state = _scene()
+    w = SeriesWriter(tmp_path, every=1, name="s")
+    w.write(model, state)
+    run(model, state, 5, writers=[w], progress=False)
+    w.close()
+    text = (tmp_path / "open_in_paraview.py").read_text()
+    assert "PVD = 's.pvd'" in text
+    compile(text, "open_in_paraview.py", "exec")        # valid Python
+    fmax = w.ranges[("contacts", "normal_force")][1]
+    assert fmax > 0 and repr(fmax) in text
+    assert not (tmp_path / "x").exists()
+    off = SeriesWriter(tmp_path / "x", name="s", state_script=False)
+    off.write(model, state)
+    off.close()
+    assert not (tmp_path / "x" / "open_in_paraview.py").exists()

@@ -93,7 +93,7 @@ def curves_of(records) -> dict:
     axial strain 1 − H/H₀, H₀ the height at the start of the loading (the records of the
     isotropic stage before it are left out), and ``"_curve_records"`` (the records drawn)
     and ``"_strain"``, ``"_q"``, ``"_p"`` per record (NaN in the isotropic stage)."""
-    from engine.analysis import equivalent_stress
+    from engine.analysis import loading_curves
 
     t = np.asarray(records.time, float)
     out = {"_step": np.asarray(records.step), "_converged": np.asarray(records.converged, bool),
@@ -103,31 +103,19 @@ def curves_of(records) -> dict:
            "iterations": (t, np.asarray(records.iterations, float), "time [s]",
                           "NLGS sweeps per step"),
            "residual": (t, np.asarray(records.residual, float), "time [s]", "NLGS residual")}
-    ex = records.extra
-    if "stress" in ex and "height" in ex and len(t):
-        s = np.asarray(ex["stress"], float)
-        h = np.asarray(ex["height"], float)
-        stage = np.asarray(ex.get("stage", np.zeros(len(t))), int)
-        load = np.flatnonzero(stage >= 1)
-        # the loading starts from the last isotropic record (engine.experiments.triaxial)
-        first = max(int(load[0]) - 1, 0) if load.size else None
-        if first is not None:
-            sel = np.arange(first, len(t))
-            eps = 1.0 - h[sel] / h[first]
-            sa = -s[sel, 2, 2]
-            sr = -(s[sel, 0, 0] + s[sel, 1, 1]) / 2.0
-            out["deviator"] = (eps, (sa - sr) / 1e3, "axial strain [-]", "deviator q [kPa]")
-            out["mean_stress"] = (eps, -np.trace(s[sel], axis1=1, axis2=2) / 3e3,
-                                  "axial strain [-]", "mean stress p [kPa]")
-            if "wire_stress" in ex:
-                w = np.asarray(ex["wire_stress"], float)[sel]
-                out["wire_equivalent"] = (eps, np.array([equivalent_stress(x) for x in w]) / 1e3,
-                                          "axial strain [-]", "wire eq. stress [kPa]")
-            out["_curve_records"] = sel
-            for key, v in (("_strain", eps), ("_q", out["deviator"][1]),
-                           ("_p", out["mean_stress"][1])):
-                out[key] = np.full(len(t), np.nan)
-                out[key][sel] = v
+    lc = loading_curves(records)
+    if lc is not None:
+        sel = lc["loading"]
+        eps = lc["strain"][sel]
+        out["deviator"] = (eps, lc["deviator"][sel] / 1e3, "axial strain [-]", "deviator q [kPa]")
+        out["mean_stress"] = (eps, lc["mean_stress"][sel] / 1e3, "axial strain [-]",
+                              "mean stress p [kPa]")
+        if "wire_stress" in records.extra:
+            out["wire_equivalent"] = (eps, lc["wire_equivalent"][sel] / 1e3, "axial strain [-]",
+                                      "wire eq. stress [kPa]")
+        out["_curve_records"] = sel
+        out["_strain"], out["_q"], out["_p"] = (lc["strain"], lc["deviator"] / 1e3,
+                                                lc["mean_stress"] / 1e3)
     return out
 
 

@@ -11,11 +11,12 @@ matplotlib.use("Agg")
 def test_convergence_figure_plots_against_step_numbers(tmp_path, monkeypatch):
     """The sweeps and residuals of the recorded steps are drawn at their step numbers
     (records every 10 steps here), not at the record index; a step array of the wrong
-    length is refused, naming the field."""
+    length is refused, naming the field.  (One step stops at max_iter: with every step
+    converged the residual panel is words, no curve.)"""
     drawn = {}
     monkeypatch.setattr(figures, "_save", lambda fig, path: drawn.setdefault("fig", fig))
     steps = np.arange(10, 60, 10)
-    figures.convergence_figure([5, 40, 300, 20, 7], [1e-5, 2e-5, 9e-5, 3e-5, 1e-6],
+    figures.convergence_figure([5, 40, 1000, 20, 7], [1e-5, 2e-5, 9e-4, 3e-5, 1e-6],
                                tmp_path / "c.png", tol=1e-4, max_iter=1000, step=steps)
     top, bottom = drawn["fig"].axes
     np.testing.assert_array_equal(top.lines[0].get_xdata(), steps)
@@ -40,4 +41,4 @@ def test_convergence_figure_marks_the_steps_that_did_not_converge(tmp_path, monk
         red = a.lines[1]                      # the not-converged markers
         np.testing.assert_array_equal(red.get_xdata(), [20, 40])
     np.testing.assert_allclose(axes[1].lines[1].get_ydata(), [5.0, 2.0])   # residual / tol
-    assert axes[0].get_title().startswith("2 of 5 recorded steps not converged")
+    assert axes[0].get_title().startswith("5 recorded steps, 2 at max_iter = 1000 (40 %)")

@@ -187,17 +187,18 @@ d.Color = [0.0, 0.0, 0.0]
 d.FontSize = 14
 d.WindowLocation = "Upper Left Corner"
 
-scene = GetAnimationScene()
-scene.UpdateAnimationUsingDataTimeSteps()
 times = list(reader.TimestepValues) if reader.TimestepValues else [0.0]
+ARGV = list(getattr(sys, "argv", None) or [])   # the GUI's embedded Python may have none
 
 
 def argument(flag, default=None):
-    return sys.argv[sys.argv.index(flag) + 1] if flag in sys.argv[:-1] else default
+    return ARGV[ARGV.index(flag) + 1] if flag in ARGV[:-1] else default
 
 
 frame = int(argument("--frame", "-1"))
-scene.AnimationTime = times[frame]
+# the time keeper, not the animation scene: from paraview --script, ParaView 5.11 hung here
+# in UpdateAnimationUsingDataTimeSteps() and in setting AnimationTime
+GetTimeKeeper().Time = times[frame]
 view.ViewTime = times[frame]
 
 # an iso view of the sample (from the front-right, a little above), fitted to it

@@ -300,3 +300,48 @@ def test_state_script_opens_the_series_ready_to_use(exported, tmp_path):
     ink = (img < 235).any(axis=2).mean()     # share of pixels that are not background white
     colours = len(np.unique(img.reshape(-1, 3), axis=0))
     assert ink > 0.1 and colours > 200, (ink, colours)
+
+
+PARAVIEW_GUI = shutil.which("paraview")
+
+
+@pytest.mark.skipif(XVFB_RUN is None or PARAVIEW_GUI is None,
+                    reason="the ParaView GUI or xvfb-run is not installed")
+def test_state_script_opens_in_the_paraview_gui(exported, tmp_path):
+    """``paraview --script=open_in_paraview.py``, the one command the docs give: the GUI
+    runs it to the end (it hung in ParaView 5.11 on the animation scene's time steps,
+    which pvpython does not show), on the last frame, with the PVD found from the path it
+    was written for (the GUI gives the script no ``__file__``), and draws it."""
+    import signal
+    import time as clock
+
+    from PIL import Image
+
+    res, h, pvd, _ = exported
+    report, shot = tmp_path / "gui.json", tmp_path / "gui.png"
+    env = {**_pv_env(), "NSCD_GUI_SCRIPT": str(pvd.parent / "open_in_paraview.py"),
+           "NSCD_GUI_REPORT": str(report), "NSCD_GUI_SHOT": str(shot)}
+    probe = os.path.join(os.path.dirname(PROBE), "pv_gui_probe.py")
+    proc = subprocess.Popen([XVFB_RUN, "-a", "-s", "-screen 0 1280x1024x24", PARAVIEW_GUI,
+                             f"--script={probe}"], env=env, stdout=subprocess.DEVNULL,
+                            stderr=subprocess.PIPE, start_new_session=True)
+    try:
+        deadline = clock.monotonic() + 180
+        while not report.exists() and proc.poll() is None and clock.monotonic() < deadline:
+            clock.sleep(0.5)
+    finally:
+        if proc.poll() is None:
+            os.killpg(proc.pid, signal.SIGTERM)
+        proc.wait(timeout=60)
+    assert report.exists(), "the GUI did not run the script to its end within 180 s"
+    got = json.loads(report.read_text())
+    assert got["ok"], got.get("error")
+    assert got["here"] == str(pvd.parent) and got["frame"] == -1
+    assert len(got["times"]) == io_frames(h)
+    img = np.asarray(Image.open(shot).convert("RGB"))
+    assert (img < 235).any(axis=2).mean() > 0.1
+
+
+def io_frames(h):
+    from engine import io
+    return io.frame_count(h)

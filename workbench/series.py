@@ -198,9 +198,7 @@ class SeriesWriter:
         for key, part in self.frame_parts(model, state).items():
             infix = "" if key == "beads" else f"_{key}"
             stem = f"{self.name}{infix}_{self.frames:06d}.vtu"
-            path = self.out_dir / stem
-            meshio.write(path, part.to_meshio(), file_format="vtu", compression=self.compression)
-            _insert_field_data(path, xml)
+            _write_vtu(self.out_dir / stem, part, xml, self.compression)
             self._entries.append((t, PARTS[key], stem))
             self._track(key, part)
         if not self._sizes and model.sphere_ids.size:
@@ -320,18 +318,25 @@ def _field_data_xml(fields: dict, compression) -> bytes:
     return ("<FieldData>\n" + "\n".join(rows) + "\n</FieldData>\n").encode()
 
 
-def _insert_field_data(path: Path, xml: bytes) -> None:
-    """Put the ``<FieldData>`` block first in the ``<UnstructuredGrid>`` of a VTU meshio
-    wrote (meshio writes no field data to VTU)."""
-    data = path.read_bytes()
+def _write_vtu(path: Path, part, xml: bytes, compression) -> None:
+    """The VTU of a part with the ``<FieldData>`` block first in its ``<UnstructuredGrid>``
+    (meshio writes no field data to VTU, and writes to a path only), then renamed into
+    place: a killed run leaves no half-written frame."""
+    raw = path.with_suffix(".vtu.part")
+    meshio.write(raw, part.to_meshio(), file_format="vtu", compression=compression)
+    data = raw.read_bytes()
     tag = b"<UnstructuredGrid>"
     i = data.find(tag)
     if i < 0:
-        raise RuntimeError(f"{path}: no <UnstructuredGrid> element (not meshio's VTU?)")
+        raise RuntimeError(f"{path}: meshio wrote no <UnstructuredGrid> element")
     i += len(tag)
     tmp = path.with_suffix(".vtu.tmp")
-    tmp.write_bytes(data[:i] + b"\n" + xml + data[i:])
+    with open(tmp, "wb") as f:
+        f.write(data[:i])
+        f.write(b"\n" + xml)
+        f.write(data[i:])
     os.replace(tmp, path)
+    raw.unlink()
 
 
 def history_fields(history) -> tuple[np.ndarray, dict]:

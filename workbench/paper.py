@@ -1153,6 +1153,11 @@ def snapshots(runs_dir: Path, fig_dir: Path, runs=None) -> tuple[dict, list]:
             ("fig11_wire", "box_rw1_seed0", "wire", "iso", -1, {}),
             ("fig13_beads", "cylinder_k1_seed0", "beads", "front", -1, {}),
             ("fig13_wire", "cylinder_k1_seed0", "wire", "front", -1, {}),
+            # Fig. 13c twice, from one cylinder: the matplotlib map (fig13) is the test's
+            # res.extra["torus_maps"] at its last strain, taken at the end of the run on
+            # Cylinder(radius, H) of that step; this picture of the last frame draws the
+            # cylinder the test recorded there (workbench.frames.frame_cylinder), so the
+            # two maps have the same cells
             ("fig13_torus", "cylinder_k1_seed0", "torus", "iso", -1, {})]
     out, problems = {}, []
     for key, run, preset, cam, frame, opts in jobs:

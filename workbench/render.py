@@ -19,20 +19,35 @@ Presets (``preset=``; ``**options`` listed with each builder)
     tension [N]; slack links (tension <= ``slack`` × max) thin and grey; broken links
     red and thin; walls translucent.
 ``forces``  (:func:`add_forces`)
-    Force chains: one tube per contact (centre to centre, or centre to the wall point)
-    whose radius and colour grow with the normal force [N]; the strong network
-    (fn > ``strong`` × mean fn, the usual split at the mean force) opaque and coloured,
-    the weak network thin and light grey.
+    Force chains: the strong network (fn > ``strong`` × mean fn, the usual split at the
+    mean force), one tube per contact (centre to centre, or centre to the wall point) of
+    radius proportional to the normal force [N] and coloured by it over a bar from 0;
+    ``weak=True`` adds the weak network as thin light-grey lines.
 ``torus``  (:func:`add_torus`)
     Toroidal map (paper Fig. 13c; :func:`engine.analysis.toroidal_map`): left, the
     axial section of the cylinder (the (r, z) map mirrored about the axis) as an image of
-    the equivalent stress [Pa] per torus cell (grey = empty cell); right, the same map revolved about the cylinder axis over
-    ``sweep`` degrees (cut open, so the inside shows).
+    the equivalent stress [Pa] per torus cell (grey = empty cell), with axes in mm; right,
+    the same map revolved about the cylinder axis over ``sweep`` degrees (cut open, so the
+    inside shows), unlit so that its colours are the bar's; one horizontal colour bar
+    under both.  The cylinder: ``cylinder=``, else the scene's cylinder wall, else a
+    ValueError (a box sample, a deposit); from a history, :mod:`workbench.frames` passes
+    a ``cylinder_triaxial`` run's own cylinder at that frame
+    (:func:`workbench.frames.frame_cylinder`).
 
-Determinism: one fixed theme (:func:`theme`: white background, Arial, fixed font sizes,
-no multi-sampling), a fixed window size, cameras computed from the scene bounds only
-(:data:`CAMERAS`), no random colours.  The same input gives the same pixels on the same
-GL stack (checked by ``tests/workbench/test_render.py``).
+Every picture has a title, by default ``step 913 · t = 45.65 ms`` (:func:`default_title`;
+a history frame also says the axial strain of a triaxial test:
+:func:`workbench.frames.frame_title`), and ``axes=True`` adds the bounds of the framed box
+with ticks in mm (units for reading).
+
+Sizes: font sizes and line widths are given for the default 800 x 600 window and scale
+with the window's smaller side (:func:`ui_scale`: min(w, h) / 600; fonts never below
+:data:`MIN_FONT` px), so a 1600 x 1200 picture reads as the 800 x 600 one and a
+400 x 300 one keeps its colour-bar titles inside the window.
+
+Determinism: one fixed theme (:func:`theme`: white background, Arial, font sizes fixed for
+a window size, no multi-sampling), a fixed window size, cameras computed from the scene
+bounds only (:data:`CAMERAS`), no random colours.  The same input gives the same pixels on
+the same GL stack (checked by ``tests/workbench/test_render.py``).
 
 Headless: the plotter is always off-screen.  VTK >= 9.4 wheels pick a GL back end at
 run time; with no ``DISPLAY`` we ask for EGL (Mesa's llvmpipe software rasteriser when
@@ -57,7 +72,9 @@ from .units import reading_unit
 
 __all__ = ["PRESETS", "CAMERAS", "snapshot", "plotter", "theme", "set_camera", "add_beads",
            "add_wire", "add_forces", "add_torus", "add_walls", "headless_backend", "revolved_map",
-           "picture_kind", "value_range"]
+           "picture_kind", "value_range", "ui_scale", "font_px", "default_title", "time_text",
+           "add_axes", "nice_ticks", "scene_summary", "wall_cylinder", "no_cylinder_error",
+           "FONT_SIZES", "MIN_FONT", "TORUS_LAYOUT"]
 
 PRESETS = ("beads", "wire", "forces", "torus")
 
@@ -71,6 +88,21 @@ CAMERAS = {
 
 #: Default window size [px] (width, height).
 WINDOW_SIZE = (800, 600)
+
+#: The smaller window side [px] at which :data:`FONT_SIZES` and line widths are as given
+#: (the default window); other windows scale them by min(w, h) / this (:func:`ui_scale`).
+REFERENCE_SIDE = 600
+
+#: Font sizes [px] in the default window: the picture's title, a colour bar's title and
+#: labels, a panel's title (the torus preset's), axis titles and tick labels.
+FONT_SIZES = dict(title=16, bar_title=14, bar_label=12, panel=15, axis_title=13, axis_label=12)
+
+#: No font is drawn smaller than this [px] (a 400 x 300 picture stays legible).
+MIN_FONT = 8
+
+#: The torus preset's window: two panels (axial section | revolved view) over one strip
+#: holding the colour bar and the title (keywords of :class:`pyvista.Plotter`).
+TORUS_LAYOUT = dict(shape=(2, 2), groups=[(1, slice(None))], row_weights=[0.78, 0.22])
 
 # colours (fixed; named so that pictures and legends agree)
 SAND_COLOR = "#d9b36c"
@@ -113,8 +145,32 @@ def headless_backend() -> str | None:
     return os.environ.get(key)
 
 
-def theme():
-    """The fixed :class:`pyvista.themes.Theme` of every picture (a fresh copy)."""
+def ui_scale(window_size) -> float:
+    """The factor of font sizes and line widths in a window of ``window_size`` (w, h) [px]:
+    min(w, h) / :data:`REFERENCE_SIDE` (1 for the default 800 x 600, 2 for 1600 x 1200)."""
+    w, h = (int(v) for v in window_size)
+    return min(w, h) / REFERENCE_SIDE
+
+
+def font_px(size, scale: float = 1.0) -> int:
+    """A font size [px]: ``size`` (px in the default window, or a key of
+    :data:`FONT_SIZES`) × ``scale``, rounded, at least :data:`MIN_FONT`."""
+    base = FONT_SIZES[size] if isinstance(size, str) else float(size)
+    return max(MIN_FONT, int(round(base * float(scale))))
+
+
+def _line_px(width: float, scale: float) -> float:
+    """A line width [px]: ``width`` (px in the default window) × ``scale``, at least 1."""
+    return max(1.0, float(width) * float(scale))
+
+
+def _scale_of(pl) -> float:
+    return ui_scale(pl.window_size)
+
+
+def theme(scale: float = 1.0):
+    """The fixed :class:`pyvista.themes.Theme` of every picture (a fresh copy); ``scale``
+    (:func:`ui_scale`) multiplies its font sizes."""
     import pyvista as pv
 
     t = pv.themes.DocumentTheme()
@@ -122,9 +178,9 @@ def theme():
     t.window_size = list(WINDOW_SIZE)
     t.font.family = "arial"
     t.font.color = "black"
-    t.font.size = 14
-    t.font.title_size = 14
-    t.font.label_size = 12
+    t.font.size = font_px(14, scale)
+    t.font.title_size = font_px("bar_title", scale)
+    t.font.label_size = font_px("bar_label", scale)
     t.font.fmt = "%.3g"
     t.multi_samples = 0
     t.anti_aliasing = None
@@ -140,13 +196,25 @@ def theme():
     return t
 
 
-def _bar(title: str, **kw) -> dict:
+def _bar(title: str, scale: float = 1.0, window_size=WINDOW_SIZE, **kw) -> dict:
+    """``scalar_bar_args`` of a vertical colour bar at the right of the picture, its fonts
+    and its width scaled by ``scale`` and placed from the right edge of a window of
+    ``window_size`` [px] so that its title and labels stay inside (``kw`` overrides)."""
+    w = float(window_size[0])
+    width = min(0.06 * 800 * scale / w, 0.2)              # 48 px at 800 x 600
+    right = min(0.08 * 800 * scale / w, 0.25)             # room for the title's right half
     # the trailing newline lifts the title off the top label (they touched)
     args = dict(title=title + "\n", vertical=True, n_labels=5, fmt="%.3g", color="black",
-                font_family="arial", title_font_size=14, label_font_size=12,
-                position_x=0.86, position_y=0.1, width=0.06, height=0.8)
+                font_family="arial", title_font_size=font_px("bar_title", scale),
+                label_font_size=font_px("bar_label", scale),
+                position_x=1.0 - width - right, position_y=0.1, width=width, height=0.8)
     args.update(kw)
     return args
+
+
+def _pl_bar(pl, title: str, **kw) -> dict:
+    """:func:`_bar` for the window of plotter ``pl``."""
+    return _bar(title, _scale_of(pl), pl.window_size, **kw)
 
 
 def set_camera(pl, camera="iso", bounds=None, zoom: float = 1.0) -> None:
@@ -266,9 +334,12 @@ def add_beads(pl, model, state, *, walls: bool = True, wall_opacity: float = 0.1
                                                        (meshes.BEAD_WIRE, "wire", WIRE_COLOR),
                                                        (FIXED_KIND, "fixed", FIXED_COLOR))
                        if k in kinds]
+            # sized in px of the default window, scaled as the fonts (the box's text fills
+            # it); upper right, where no colour bar is (this picture has none)
+            sc, (w, h) = _scale_of(pl), pl.window_size
+            size = (min(104.0 * sc / w, 0.4), min(21.0 * sc * (len(entries) + 1) / h, 0.5))
             legend = pl.add_legend(entries, bcolor="white", border=False, face="circle",
-                                   size=(0.13, 0.035 * (len(entries) + 1)),
-                                   loc="upper right", name="kind_legend")
+                                   size=size, loc="upper right", name="kind_legend")
             _black_legend_text(legend, [col for _, col in entries])
         elif color_by in ("speed", "group"):
             if clim is None:  # explicit: the point-Gaussian mapper's bar would show 0-1
@@ -280,7 +351,7 @@ def add_beads(pl, model, state, *, walls: bool = True, wall_opacity: float = 0.1
                     part.point_data, speed=part.point_data["speed"] * f))
                 clim, title = (clim[0] * f, clim[1] * f), f"speed [{unit}]"
             _spheres(pl, part, "beads", scalars=color_by, cmap=cmap, clim=clim,
-                     show_scalar_bar=True, scalar_bar_args=_bar(title))
+                     show_scalar_bar=True, scalar_bar_args=_pl_bar(pl, title))
         else:
             raise ValueError(f"color_by must be 'kind', 'speed' or 'group', got {color_by!r}")
     if walls:
@@ -384,7 +455,7 @@ def add_wire(pl, model, state, *, max_radius: float | None = None, slack: float 
     if tubes is not None:
         pl.add_mesh(tubes, scalars="value", cmap=cmap, clim=(lim[0] * f, lim[1] * f),
                     name="wire_taut", smooth_shading=True, show_scalar_bar=True,
-                    scalar_bar_args=_bar(f"tension [{unit}]"))
+                    scalar_bar_args=_pl_bar(pl, f"tension [{unit}]"))
     if beads:
         import pyvista as pv
 
@@ -400,13 +471,15 @@ def add_wire(pl, model, state, *, max_radius: float | None = None, slack: float 
 
 def add_forces(pl, model, state, *, strong: float = 1.0, max_radius: float | None = None,
                clim=None, cmap="plasma", walls: bool = True, wall_opacity: float = 0.1,
-               weak: bool = True, n_sides: int = 8) -> None:
-    """Preset ``forces``: force chains.
+               weak: bool = False, n_sides: int = 8) -> None:
+    """Preset ``forces``: force chains, the strong network.
 
     Contacts with fn > ``strong`` × mean fn (the strong network) are tubes of radius
-    ``max_radius`` × fn / max fn (default: the mean sphere radius × 0.5) coloured by fn [N]
-    over ``clim`` (default: from 0, where the forces start, to max fn); the weak
-    network is drawn as 1-px light-grey lines (``weak=False`` hides it).
+    ``max_radius`` × fn / max fn (proportional to the force; default ``max_radius``: the
+    mean sphere radius × 0.5; at least ``max_radius``/10, so that none vanishes) coloured
+    by fn [N] over ``clim`` (default: from 0, where the forces start, to max fn).
+    ``weak=True`` also draws the weak network, as thin light-grey lines (off by default:
+    with it, a sample of a few thousand contacts is a bird's nest).
     """
     part = meshes.contact_part(model, state)
     if walls:
@@ -425,28 +498,63 @@ def add_forces(pl, model, state, *, strong: float = 1.0, max_radius: float | Non
         idx = np.flatnonzero(~is_strong)
         lines = meshes.Part(points=part.points.reshape(-1, 2, 3)[idx].reshape(-1, 3),
                             cell_type="line", cells=np.arange(2 * idx.size).reshape(-1, 2))
-        pl.add_mesh(lines.to_polydata(), color=WEAK_COLOR, line_width=1.0, lighting=False,
-                    name="forces_weak", show_scalar_bar=False)
+        pl.add_mesh(lines.to_polydata(), color=WEAK_COLOR, lighting=False, name="forces_weak",
+                    line_width=_line_px(1.0, _scale_of(pl)), show_scalar_bar=False)
     lim = clim if clim is not None else _from_zero(fmax)
     f, unit = reading_unit("N", max(abs(lim[0]), abs(lim[1])))
     tubes = _tube_lines(part, fn * f, np.maximum(rad, thin), is_strong, n_sides)
     if tubes is not None:
         pl.add_mesh(tubes, scalars="value", cmap=cmap, clim=(lim[0] * f, lim[1] * f),
                     name="forces_strong", smooth_shading=True, show_scalar_bar=True,
-                    scalar_bar_args=_bar(f"normal force [{unit}]"))
+                    scalar_bar_args=_pl_bar(pl, f"normal force [{unit}]"))
 
 
-def _cylinder_of(model, state):
+def scene_summary(model) -> str:
+    """A few words on what a scene holds: ``"729 spheres, walls: 2 planes"``."""
+    from engine.model import CYLINDER, PLANE
+
+    kinds = model.body_kind[model.wall_ids] if len(model.wall_ids) else np.zeros(0, int)
+    walls = [f"{n} {name}{'s' if n != 1 else ''}" for n, name in
+             ((int((kinds == PLANE).sum()), "plane"), (int((kinds == CYLINDER).sum()), "cylinder"))
+             if n]
+    n = len(model.sphere_ids)
+    return f"{n} sphere{'s' if n != 1 else ''}, walls: {', '.join(walls) or 'none'}"
+
+
+#: The end of the refusal of a toroidal map without a cylinder (one line).
+_CYLINDER_HINT = ("pass cylinder=Cylinder(radius, height, center) to draw one anyway, or render "
+                  "the run's history file (workbench.frames.render_frames, nscd render "
+                  "--preset torus), which takes a cylinder_triaxial run's own cylinder")
+
+
+def no_cylinder_error(what: str, hint: str = _CYLINDER_HINT) -> ValueError:
+    """The one-line refusal of a toroidal map on ``what`` (the scene, said in a few words)."""
+    return ValueError(f"preset 'torus': a toroidal map needs a cylindrical sample, and {what}; "
+                      f"{hint}")
+
+
+def wall_cylinder(model, state):
+    """The :class:`~engine.prep.containers.Cylinder` of the scene's first cylinder wall, or
+    None without one; ValueError for a cylinder that is not vertical (+z)."""
+    from engine.model import CYLINDER
     from engine.prep.containers import Cylinder
 
-    cyl = [w for w in model.wall_ids if model.body_kind[w] == 2]
+    cyl = [w for w in model.wall_ids if model.body_kind[w] == CYLINDER]
     if not cyl:
-        raise ValueError("preset 'torus' needs cylinder=Cylinder(...): the scene has no cylinder")
+        return None
     w = cyl[0]
     if not np.allclose(model.body_axis[w], (0.0, 0.0, 1.0)):
         raise ValueError("toroidal maps need a vertical (+z) cylinder")
     return Cylinder(radius=float(model.body_radius[w]), height=float(model.body_height[w]),
                     center=tuple(state.position[w]))
+
+
+def _cylinder_of(model, state):
+    """The scene's cylinder wall (:func:`wall_cylinder`), or the refusal."""
+    cyl = wall_cylinder(model, state)
+    if cyl is None:
+        raise no_cylinder_error(f"this scene ({scene_summary(model)}) has no cylinder wall")
+    return cyl
 
 
 def _torus_map(model, state, cylinder, n_r, n_z, part):
@@ -458,10 +566,11 @@ def _torus_map(model, state, cylinder, n_r, n_z, part):
 
 
 def _torus_values(tmap, field, part):
+    of = {"wire": "the wire", "sand": "the sand", "all": "sand + wire"}.get(part, part)
     if field == "equivalent":
-        return tmap.equivalent, f"eq. stress\n{part} [Pa]"
+        return tmap.equivalent, f"equivalent stress of {of} [Pa]"
     if field == "pressure":
-        return -np.trace(tmap.stress, axis1=2, axis2=3) / 3.0, f"pressure\n{part} [Pa]"
+        return -np.trace(tmap.stress, axis1=2, axis2=3) / 3.0, f"pressure of {of} [Pa]"
     raise ValueError(f"field must be 'equivalent' or 'pressure', got {field!r}")
 
 
@@ -472,17 +581,153 @@ def _torus_span(values):
     return _from_zero(float(finite.max()) if finite.size else 0.0)
 
 
+def _text(pl, text: str, position, size: int, *, name=None, halign: str = "left",
+          valign: str = "bottom", orientation: float = 0.0, world: bool = False):
+    """A text actor of ``size`` px at ``position``: normalised viewport coordinates of the
+    current renderer, or world coordinates (x, y, z) when ``world``; anchored at its
+    ``halign`` x ``valign`` corner."""
+    import pyvista as pv
+
+    if world:
+        actor = pv.Text(text)
+        actor.GetPositionCoordinate().SetCoordinateSystemToWorld()
+        actor.GetPositionCoordinate().SetValue(*(float(v) for v in position))
+        pl.add_actor(actor, reset_camera=False, name=name, pickable=False, render=False)
+    else:
+        actor = pl.add_text(text, position=tuple(position), viewport=True, font_size=size / 2,
+                            color="black", name=name, orientation=orientation, render=False)
+    prop = actor.GetTextProperty()
+    prop.SetFontFamilyToArial()
+    prop.SetColor(0.0, 0.0, 0.0)
+    prop.SetFontSize(int(size))
+    prop.SetOrientation(float(orientation))
+    getattr(prop, f"SetJustificationTo{halign.capitalize()}")()
+    getattr(prop, f"SetVerticalJustificationTo{valign.capitalize()}")()
+    return actor
+
+
+def nice_ticks(lo: float, hi: float, n: int = 5) -> np.ndarray:
+    """About ``n`` round tick values (steps of 1, 2, 2.5 or 5 × 10^k) in [lo, hi]."""
+    lo, hi = float(lo), float(hi)
+    if not hi > lo:
+        return np.array([lo])
+    raw = (hi - lo) / max(int(n) - 1, 1)
+    k = 10.0 ** np.floor(np.log10(raw))
+    step = min((m * k for m in (1.0, 2.0, 2.5, 5.0, 10.0) if m * k >= raw * 0.999),
+               default=10.0 * k)
+    first = np.ceil(lo / step - 1e-9) * step
+    ticks = np.arange(first, hi + step * 1e-9, step)
+    return np.round(ticks / step) * step + 0.0        # no -0
+
+
+def _tick_label(v: float) -> str:
+    return f"{v:.3g}"
+
+
+def _section_axes(pl, xe, ze, scale: float, vp_px) -> None:
+    """Axes with ticks in mm (units for reading) of the axial section drawn in the x-y plane
+    over x in [xe[0], xe[-1]], y in [ze[0], ze[-1]] [m]: r below, z at the left, each set
+    off from the image by a gap, so that their first labels do not meet at the corner;
+    then the camera framing the section and its labels in the viewport (``vp_px``, its
+    (width, height) [px])."""
+    import pyvista as pv
+
+    x0, x1, z0, z1 = float(xe[0]), float(xe[-1]), float(ze[0]), float(ze[-1])
+    f, unit = reading_unit("m", max(abs(x0), abs(x1), abs(z0), abs(z1)))
+    lab, tit = font_px("axis_label", scale), font_px("axis_title", scale)
+    gap, tick, pad = 6.0 * scale, 5.0 * scale, 3.0 * scale              # [px]
+    # room [px] around the image: labels and titles left and below, the panel title above
+    zt = nice_ticks(z0 * f, z1 * f, 5)
+    rt = nice_ticks(x0 * f, x1 * f, 5)
+    width_label = 0.6 * lab * max(len(_tick_label(v)) for v in zt)
+    left = gap + tick + pad + width_label + pad + tit + 2 * pad
+    below = gap + tick + pad + lab + pad + tit + 2 * pad
+    above = font_px("panel", scale) + 4 * pad + 6.0 * scale
+    right = 12.0 * scale
+    vw, vh = (float(v) for v in vp_px)
+    aw, ah = max(vw - left - right, 10.0), max(vh - below - above, 10.0)
+    wpp = max((x1 - x0) / aw, (z1 - z0) / ah)                            # [m / px]
+    cx = 0.5 * (x0 + x1) - 0.5 * (left - right) * wpp
+    cy = 0.5 * (z0 + z1) - 0.5 * (below - above) * wpp
+    pl.camera_position = [(cx, cy, 1.0), (cx, cy, 0.0), (0.0, 1.0, 0.0)]
+    pl.enable_parallel_projection()
+    pl.camera.parallel_scale = 0.5 * vh * wpp
+    pl.camera.clipping_range = (0.5, 1.5)
+
+    ya = z0 - gap * wpp                          # the r axis, below the image
+    xa = x0 - gap * wpp                          # the z axis, left of it
+    segs = [[(x0, ya), (x1, ya)], [(xa, z0), (xa, z1)]]
+    segs += [[(v / f, ya), (v / f, ya - tick * wpp)] for v in rt]
+    segs += [[(xa, v / f), (xa - tick * wpp, v / f)] for v in zt]
+    pts = np.array([(x, y, 0.0) for seg in segs for (x, y) in seg])
+    n = len(segs)
+    lines = pv.PolyData(pts, lines=np.column_stack([np.full(n, 2), 2 * np.arange(n),
+                                                    2 * np.arange(n) + 1]).ravel())
+    pl.add_mesh(lines, color="black", line_width=_line_px(1.0, scale), lighting=False,
+                name="section_axes", show_scalar_bar=False, reset_camera=False)
+    for i, v in enumerate(rt):
+        _text(pl, _tick_label(v), (v / f, ya - (tick + pad) * wpp, 0.0), lab, world=True,
+              halign="centered", valign="top", name=f"section_r{i}")
+    for i, v in enumerate(zt):
+        _text(pl, _tick_label(v), (xa - (tick + pad) * wpp, v / f, 0.0), lab, world=True,
+              halign="right", valign="centered", name=f"section_z{i}")
+    _text(pl, f"r [{unit}], both sides of the axis",
+          (0.5 * (x0 + x1), ya - (tick + 2 * pad + lab + pad) * wpp, 0.0), tit, world=True,
+          halign="centered", valign="top", name="section_r_title")
+    _text(pl, f"z [{unit}]", (xa - (tick + 2 * pad + width_label + pad) * wpp,
+                              0.5 * (z0 + z1), 0.0), tit, world=True, halign="centered",
+          valign="bottom", orientation=90.0, name="section_z_title")
+
+
+def _cell_grid_lines(r_edges, z_edges, center, sweep: float, resolution: int):
+    """The (r, z) cell boundaries of a revolved map as lines on its surface: arcs at each
+    z edge on the outer (and inner) wall, arcs at each r edge on the top and bottom, and the
+    grid of both on the two cut faces, each lifted off its face by 0.2 % of the map's size
+    (lines on a face z-fight with it): a :class:`pyvista.PolyData`."""
+    import pyvista as pv
+
+    re_, ze = np.asarray(r_edges, float), np.asarray(z_edges, float)
+    c = np.asarray(center, float)
+    eps = 2e-3 * max(re_[-1], ze[-1] - ze[0])
+    k = max(2, int(round(resolution * sweep / 360.0)))
+    th = np.deg2rad(np.linspace(0.0, float(sweep), k + 1))
+
+    def arc(r, z):
+        return np.column_stack([r * np.cos(th), r * np.sin(th), np.full_like(th, z)])
+
+    polys = [arc(re_[-1] + eps, z) for z in ze]                # on the outer wall
+    if re_[0] > 0:                                             # on the inner wall
+        polys += [arc(re_[0] - eps, z) for z in ze]
+    polys += [arc(r, ze[-1] + eps) for r in re_ if r > 0]      # on the top
+    polys += [arc(r, ze[0] - eps) for r in re_ if r > 0]       # on the bottom
+    for t, side in ((th[0], -1.0), (th[-1], 1.0)):             # on the cut faces
+        u = np.array([np.cos(t), np.sin(t), 0.0])
+        out = side * eps * np.array([-np.sin(t), np.cos(t), 0.0])
+        polys += [np.array([r * u + (0, 0, ze[0]), r * u + (0, 0, ze[-1])]) + out for r in re_]
+        polys += [np.array([re_[0] * u + (0, 0, z), re_[-1] * u + (0, 0, z)]) + out
+                  for z in ze]
+    pts = np.concatenate(polys) + c
+    conn, start = [], 0
+    for p in polys:
+        conn += [len(p), *range(start, start + len(p))]
+        start += len(p)
+    return pv.PolyData(pts, lines=np.asarray(conn))
+
+
 def add_torus(pl, model, state, *, cylinder=None, tmap=None, n_r: int = 5, n_z: int = 10,
               part: str = "wire", field: str = "equivalent", clim=None, cmap="viridis",
               sweep: float = 270.0, resolution: int = 72, camera="iso") -> None:
-    """Preset ``torus`` on a plotter of shape (1, 2): the axial section (left: the (r, z)
-    map mirrored about the axis) and the revolved view (right) of a toroidal map.
+    """Preset ``torus`` on a plotter of :data:`TORUS_LAYOUT` (or of shape (1, 2): the bar
+    then at the right of the revolved view): the axial section (upper left: the (r, z) map
+    mirrored about the axis, axes in mm) and the revolved view (upper right, unlit: its
+    colours are the bar's) of a toroidal map, and one horizontal colour bar under both.
 
     ``tmap`` (an :class:`engine.analysis.ToroidalMap`) is computed with
     :func:`engine.analysis.toroidal_map` (``cylinder``, ``n_r``, ``n_z``, ``part``) when
-    not given; ``cylinder`` defaults to the scene's first (vertical) cylinder.  ``field``
-    is ``"equivalent"`` (‖dev σ‖ [Pa]) or ``"pressure"`` (−tr σ / 3 [Pa], compression
-    positive).
+    not given; ``cylinder`` defaults to the scene's cylinder wall, and a scene without one
+    is refused (ValueError; a history's frame passes its run's cylinder:
+    :func:`workbench.frames.frame_cylinder`).  ``field`` is ``"equivalent"`` (‖dev σ‖
+    [Pa]) or ``"pressure"`` (−tr σ / 3 [Pa], compression positive).
     """
     if tmap is None:
         cylinder, tmap = _torus_map(model, state, cylinder, n_r, n_z, part)
@@ -490,9 +735,13 @@ def add_torus(pl, model, state, *, cylinder=None, tmap=None, n_r: int = 5, n_z: 
     span = clim if clim is not None else _torus_span(values)
     f, unit = reading_unit("Pa", max(abs(span[0]), abs(span[1])))      # kPa under 15 kPa
     values, title = values * f, title.replace("[Pa]", f"[{unit}]")
-    clim = (span[0] * f, span[1] * f)
+    lim = (span[0] * f, span[1] * f)
     re_, ze = np.asarray(tmap.r_edges, float), np.asarray(tmap.z_edges, float)
-    lim = clim if clim is not None else _torus_span(values)
+    sc = _scale_of(pl)
+    W, H = pl.window_size
+    strip = pl.shape[0] >= 2
+    panel = font_px("panel", sc)
+    edge = _line_px(1.0, sc)
 
     # left: the axial section (paper Fig. 13c: "drawn in the axial/radial section"), the
     # (r, z) map mirrored about the axis so that it reads as a cut through the sample and
@@ -500,28 +749,47 @@ def add_torus(pl, model, state, *, cylinder=None, tmap=None, n_r: int = 5, n_z: 
     sec = axial_section(values, re_, ze, title)
     xe = np.asarray(sec.x)
     pl.subplot(0, 0)
-    pl.add_text("axial section", font_size=10, color="black", position="upper_left")
-    pl.add_mesh(sec, scalars=title, cmap=cmap, clim=lim, nan_color=NAN_COLOR, show_edges=True,
-                edge_color="white", lighting=False, show_scalar_bar=True,
-                scalar_bar_args=_bar(title, position_x=0.84, width=0.07))
-    pl.show_bounds(xtitle="r [m], both sides of the axis", ytitle="z [m]", ztitle="",
-                   show_zaxis=False, color="black", font_size=11, fmt="%.2g",
-                   location="front", grid=False, use_2d=True, n_xlabels=3, n_ylabels=5)
-    set_camera(pl, "top", bounds=np.array([[xe[0], ze[0], 0.0], [xe[-1], ze[-1], 0.0]]))
-    pl.enable_parallel_projection()
-    pl.reset_camera()
-    pl.camera.zoom(0.8)
+    _text(pl, "axial section", (0.02, 0.975), panel, valign="top", name="panel_section")
+    section = pl.add_mesh(sec, scalars=title, cmap=cmap, clim=lim, nan_color=NAN_COLOR,
+                          show_edges=True, edge_color="white", line_width=edge, lighting=False,
+                          show_scalar_bar=False, name="torus_section", reset_camera=False)
+    vx0, vy0, vx1, vy1 = pl.renderer.GetViewport()
+    _section_axes(pl, xe, ze, sc, ((vx1 - vx0) * W, (vy1 - vy0) * H))
 
-    # right: revolved about the axis over `sweep` degrees
+    # right: revolved about the axis over `sweep` degrees, unlit (flat colours: those of
+    # the bar), the cells' edges drawn on its surface
     c = np.asarray(tmap_center(cylinder, model, state), float)
     pl.subplot(0, 1)
-    pl.add_text(f"revolved ({sweep:g} deg)", font_size=10, color="black", position="upper_left")
+    _text(pl, f"revolved ({sweep:g}°)", (0.02, 0.975), panel, valign="top",
+          name="panel_revolved")
     pl.add_mesh(revolved_map(values, re_, ze, c, title, sweep=sweep, resolution=resolution),
                 scalars=title, cmap=cmap, clim=lim, nan_color=NAN_COLOR, show_scalar_bar=False,
-                smooth_shading=False)
+                smooth_shading=False, lighting=False, name="torus_revolved")
+    pl.add_mesh(_cell_grid_lines(re_, ze, c, sweep, resolution), color="white",
+                line_width=edge, lighting=False, name="torus_cells", show_scalar_bar=False)
     lo = c - (re_[-1], re_[-1], 0.0)
     hi = c + (re_[-1], re_[-1], ze[-1])
     set_camera(pl, camera, bounds=np.array([lo, hi]))
+    pl.camera.zoom(1.1)                         # (reset_camera fits the bounding sphere)
+
+    if strip:     # one horizontal bar under both panels, its title above it
+        pl.subplot(1, 0)
+        sh = float(TORUS_LAYOUT["row_weights"][1]) / sum(TORUS_LAYOUT["row_weights"]) * H
+        bar_h = 34.0 * sc / sh                  # the bar and its labels below it
+        y = 0.5 - 0.5 * bar_h + 4.0 * sc / sh
+        args = dict(title="", vertical=False, n_labels=5, fmt="%.3g", color="black",
+                    font_family="arial", label_font_size=font_px("bar_label", sc),
+                    title_font_size=font_px("bar_title", sc),
+                    position_x=0.25, position_y=y, width=0.5, height=bar_h)
+        bar = pl.add_scalar_bar(mapper=section.mapper, **args)
+        bar.SetTextPositionToPrecedeScalarBar()               # labels under the bar
+        _text(pl, title, (0.5, y + bar_h + 5.0 * sc / sh), font_px("bar_title", sc),
+              halign="centered", valign="bottom", name="bar_title")
+    else:         # a vertical bar at the right of the revolved view (its viewport's size)
+        x0, _, x1, _ = pl.renderer.GetViewport()
+        pl.add_scalar_bar(mapper=section.mapper, **_bar(title.replace(" of ", "\nof "), sc,
+                                                         ((x1 - x0) * W, H)))
+        pl.camera.zoom(0.8)                     # room for it
 
 
 def revolved_map(values, r_edges, z_edges, center, name: str = "values", *,
@@ -575,12 +843,75 @@ def tmap_center(cylinder, model, state):
 
 
 # -- entry points --------------------------------------------------------------------------
+def time_text(t: float) -> str:
+    """``t`` [s] for reading: ``"45.65 ms"``, ``"2.5 s"``, ``"0 s"`` (4 significant digits;
+    the prefix that puts it between 1 and 1000, as :func:`workbench.units.reading_unit`
+    does for its units; never above s)."""
+    from .units import PREFIXED
+
+    t = float(t)
+    if "s" in PREFIXED:
+        f, unit = reading_unit("s", t)
+    else:                      # the prefix reading_unit gives a length, applied to seconds
+        f, unit = reading_unit("m", t)
+        unit = unit[:-1] + "s"
+    if f < 1.0:
+        f, unit = 1.0, "s"
+    return f"{t * f:.4g} {unit}"
+
+
+def default_title(state, *more: str) -> str:
+    """The default title of a picture of ``state``: ``"step 913 · t = 45.65 ms"``, then
+    each of ``more`` (e.g. ``"axial strain 5.00 %"``: :func:`workbench.frames.frame_title`)
+    after a ``·``."""
+    parts = [f"step {int(state.step)}", f"t = {time_text(state.time)}", *more]
+    return " · ".join(p for p in parts if p)
+
+
+def add_axes(pl, bounds, *, scale: float | None = None):
+    """The box ``bounds`` ((2, 3) [m]) as axes on its outer edges with ticks at round
+    values (VTK's cube axes) and titles in units for reading (mm for a sample of a few mm:
+    :func:`workbench.units.reading_unit`), fonts and lines scaled with the window
+    (``scale``, default :func:`ui_scale` of ``pl``).  Returns the actor (name ``"axes"``)."""
+    from vtkmodules.vtkRenderingAnnotation import vtkCubeAxesActor
+
+    b = np.asarray(bounds, float)
+    sc = _scale_of(pl) if scale is None else float(scale)
+    f, unit = reading_unit("m", float(np.abs(b).max()))
+    actor = vtkCubeAxesActor()
+    actor.SetBounds(*np.column_stack([b[0], b[1]]).ravel())
+    actor.SetXAxisRange(b[0, 0] * f, b[1, 0] * f)
+    actor.SetYAxisRange(b[0, 1] * f, b[1, 1] * f)
+    actor.SetZAxisRange(b[0, 2] * f, b[1, 2] * f)
+    actor.SetCamera(pl.camera)
+    actor.SetFlyModeToOuterEdges()
+    actor.SetTickLocationToOutside()
+    actor.SetUseTextActor3D(False)
+    actor.SetLabelScaling(False, 0, 0, 0)              # labels in mm, no "x 10^-3" title
+    for i, axis in enumerate("XYZ"):       # (the label format: VTK's, from the range)
+        getattr(actor, f"Set{axis}Title")(f"{axis.lower()} [{unit}]")
+        getattr(actor, f"Get{axis}AxesLinesProperty")().SetColor(0.0, 0.0, 0.0)
+        getattr(actor, f"Get{axis}AxesLinesProperty")().SetLineWidth(_line_px(1.0, sc))
+        for prop, size in ((actor.GetTitleTextProperty(i), "axis_title"),
+                           (actor.GetLabelTextProperty(i), "axis_label")):
+            prop.SetColor(0.0, 0.0, 0.0)
+            prop.SetFontFamilyToArial()
+            prop.SetFontSize(font_px(size, sc))
+    pl.add_actor(actor, reset_camera=False, name="axes", pickable=False, render=False)
+    return actor
+
+
 def plotter(model, state, preset: str = "beads", *, camera="iso", window_size=WINDOW_SIZE,
-            zoom: float = 1.0, title: str | None = None, bounds=None, **options):
+            zoom: float = 1.0, title: str | None = None, bounds=None, axes: bool = False,
+            **options):
     """An off-screen :class:`pyvista.Plotter` holding the picture of ``preset`` (see the
     module doc; ``options`` go to the preset's builder).  ``bounds`` ((2, 3) [m]) frames the
     camera on that box instead of this state's free bodies (one camera for several frames:
-    :mod:`workbench.frames`).  The caller closes it."""
+    :mod:`workbench.frames`).  ``title`` replaces the default one (:func:`default_title`;
+    ``""``: none).  ``axes=True`` draws the framed box as axes with ticks in mm
+    (:func:`add_axes`; the torus preset's axial section always has its axes, in mm, and
+    its revolved view none).  Fonts and line widths scale with ``window_size``
+    (:func:`ui_scale`).  The caller closes it."""
     if preset not in PRESETS:
         raise ValueError(f"unknown preset {preset!r}; presets are {list(PRESETS)}")
     w, h = (int(v) for v in window_size)
@@ -589,25 +920,33 @@ def plotter(model, state, preset: str = "beads", *, camera="iso", window_size=WI
     headless_backend()
     import pyvista as pv
 
-    shape = (1, 2) if preset == "torus" else (1, 1)
-    pl = pv.Plotter(off_screen=True, window_size=[w, h], theme=theme(), shape=shape,
-                    border=False)
+    sc = ui_scale((w, h))
+    layout = dict(TORUS_LAYOUT) if preset == "torus" else dict(shape=(1, 1))
+    pl = pv.Plotter(off_screen=True, window_size=[w, h], theme=theme(sc), border=False,
+                    **layout)
     try:
         if preset == "torus":
             add_torus(pl, model, state, camera=camera, **options)
+            pl.subplot(0, 1)                                   # the revolved view
             if zoom != 1.0:
                 pl.camera.zoom(float(zoom))
+            # (no `axes`: the axial section has its own, in mm)
+            pl.subplot(1, 0)                                   # the strip under the panels
+            where = (0.015, 0.06)
         else:
             {"beads": add_beads, "wire": add_wire, "forces": add_forces}[preset](
                 pl, model, state, **options)
             box = meshes.scene_bounds(model, state, free_only=True) if bounds is None \
                 else np.asarray(bounds, float)
-            set_camera(pl, camera, bounds=box, zoom=zoom)
-        text = title if title is not None else f"t = {float(state.time):.4g} s"
+            # with axes: room for their labels
+            set_camera(pl, camera, bounds=box, zoom=(0.85 if axes else 1.0) * zoom)
+            if axes:
+                add_axes(pl, box, scale=sc)
+            where = (0.015, 0.015)
+        text = title if title is not None else default_title(state)
         if text:
             # a corner annotation ("lower_left") clips the first glyph at the window edge
-            pl.add_text(text, position=(0.015, 0.015), viewport=True, font_size=10,
-                        color="black", name="title")
+            _text(pl, text, where, font_px("title", sc), name="title")
     except Exception:
         pl.close()
         raise
@@ -618,16 +957,20 @@ def snapshot(model, state, path, preset: str = "beads", *, camera="iso",
              window_size=WINDOW_SIZE, **options) -> Path:
     """Render ``preset`` off-screen to the PNG ``path`` (parent directories created) and
     return the path (``.png`` added when it has no suffix, as the image writer does).  See
-    :func:`plotter` for ``camera``, ``window_size``, ``zoom``, ``title`` and the module doc
-    for each preset's ``options``.  A wire preset (``wire``, ``torus``) of a scene without
-    wire links warns: its picture shows no wire."""
+    :func:`plotter` for ``camera``, ``window_size``, ``zoom``, ``title``, ``bounds``,
+    ``axes`` and the module doc for each preset's ``options``.  The torus preset takes the
+    scene's cylinder wall or ``cylinder=``, and refuses a scene without one (a state has no
+    history: :func:`workbench.frames.render_frames` takes a cylinder_triaxial run's own
+    cylinder).  A picture of the wire (``wire``, ``torus`` of ``part="wire"``) of a scene
+    without wire links warns: it shows no wire."""
     path = Path(path)
     if not path.suffix:
         path = path.with_suffix(".png")
     path.parent.mkdir(parents=True, exist_ok=True)
     pl = plotter(model, state, preset, camera=camera, window_size=window_size, **options)
     try:
-        if preset in ("wire", "torus") and model.n_links == 0:
+        if model.n_links == 0 and (preset == "wire" or preset == "torus" and options.get(
+                "tmap") is None and options.get("part", "wire") == "wire"):
             import warnings
 
             shows = "the walls only" if preset == "wire" else "an empty map"

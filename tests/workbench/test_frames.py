@@ -10,8 +10,9 @@ from workbench import cli, frames
 
 
 @pytest.fixture(scope="module")
-def history(tmp_path_factory):
-    """A short cylinder test with a wire: frames whose tensions and forces change."""
+def triaxial(tmp_path_factory):
+    """A short cylinder test with a wire: frames whose tensions and forces change, and the
+    test's own toroidal map at its end (1 % strain).  (path, result)."""
     import warnings
 
     from engine.experiments import cylinder_triaxial
@@ -19,9 +20,15 @@ def history(tmp_path_factory):
     path = tmp_path_factory.mktemp("frames") / "run.h5"
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
-        cylinder_triaxial(0.05, axial_strain=0.01, frames=6, history=str(path),
-                          progress=False, iso_max_steps=200, max_nonconverged=1.0)
-    return path
+        res = cylinder_triaxial(0.05, axial_strain=0.01, frames=6, history=str(path),
+                                progress=False, iso_max_steps=200, max_nonconverged=1.0,
+                                torus_strains=[0.01])
+    return path, res
+
+
+@pytest.fixture(scope="module")
+def history(triaxial):
+    return triaxial[0]
 
 
 def test_parse_frames():
@@ -128,3 +135,153 @@ def test_nscd_render_frames_movie_and_bad_options(history, tmp_path, capsys, mon
         assert cli.main(["render", str(history), *args]) == 2, args
         err = capsys.readouterr().err.strip()
         assert says in err and "\n" not in err, (args, err)
+
+
+# -- what the history knows: the run's cylinder, the frame's title ---------------------------
+def test_torus_cylinder_is_the_runs_recorded_cylinder(triaxial, tmp_path, monkeypatch):
+    """For a cylinder_triaxial history the torus preset's cylinder at a frame is the
+    sample's cylinder the test recorded at that frame's step (records ``radius``,
+    ``height``; base on the floor at z = 0), not one fitted around the grains; the same
+    rule in render_frames / write_movie / common_clim / the CLI, and at the last frame the
+    picture's map is the test's own ``extra["torus_maps"]``."""
+    from engine.analysis import toroidal_map
+    from workbench import meshes, render
+
+    history, res = triaxial
+    rec = io.read_history(history, frames=False)
+    n = io.frame_count(history)
+    for k in (0, n // 2, n - 1):
+        model, state = io.load(history, frame=k)
+        cyl = frames.frame_cylinder(history, k)
+        i = int(np.argmin(np.abs(rec.step - state.step)))
+        if k:                                  # frame 0 (step 0): the first record's
+            assert rec.step[i] == state.step
+        assert cyl.radius == rec.extra["radius"][i] and cyl.height == rec.extra["height"][i]
+        assert cyl.center == (0.0, 0.0, 0.0)
+        fitted = meshes.sample_cylinder(model, state)               # the old guess
+        assert abs(fitted.radius - cyl.radius) > 1e-6
+    # the test's map at 1 % strain (its last step) is the map of the last frame's picture
+    (strain, tmap), = res.extra["torus_maps"].items()
+    model, state = io.load(history, frame=-1)
+    mine = toroidal_map(model, state, frames.frame_cylinder(history, -1), part="wire")
+    np.testing.assert_array_equal(mine.r_edges, tmap.r_edges)
+    np.testing.assert_array_equal(mine.z_edges, tmap.z_edges)
+    # (a frame read back has its links' directions at the frame's positions, the test's
+    # live state at the step's predicted configuration: engine.io; 0.1 % here)
+    np.testing.assert_allclose(mine.equivalent, tmap.equivalent, rtol=1e-2, atol=1e-6,
+                               equal_nan=True)
+    seen = []
+    real = render.snapshot
+
+    def spy(model, state, path, **kw):
+        seen.append((state.step, kw.get("cylinder")))
+        return real(model, state, path, **kw)
+
+    monkeypatch.setattr(render, "snapshot", spy)
+    frames.render_frames(history, tmp_path / "t", frames="all", preset="torus",
+                         window_size=(200, 120), progress=False)
+    assert len(seen) == n
+    for step, cyl in seen:
+        i = int(np.argmin(np.abs(rec.step - step)))
+        assert (cyl.radius, cyl.height) == (rec.extra["radius"][i], rec.extra["height"][i])
+    # cylinder= still overrides
+    from engine.prep.containers import Cylinder
+    seen.clear()
+    mine = Cylinder(2e-3, 4e-3)
+    frames.render_frames(history, tmp_path / "o.png", preset="torus", cylinder=mine,
+                         window_size=(200, 120), progress=False)
+    assert seen[0][1] is mine
+
+
+def _plain_history(path, scene_fn, steps=20, meta=None):
+    model, state = scene_fn()
+    h = io.History(path, frames=10, flush=10, meta=meta)
+    try:
+        import warnings
+
+        from engine import run
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            run(model, state, steps, writers=[h], progress=False)
+    finally:
+        h.close()
+    return path
+
+
+def test_torus_refuses_a_box_history_in_one_line(tmp_path):
+    """A box_triaxial history (a box sample, no cylinder wall): one line saying what the
+    run is; ``cylinder=`` still draws one."""
+    from engine.prep.containers import Cylinder
+
+    from .test_render import _box_sample
+
+    h = _plain_history(tmp_path / "box.h5", _box_sample, meta={"test": "box_triaxial"})
+    with pytest.raises(ValueError) as err:
+        frames.render_frames(h, tmp_path / "t.png", preset="torus", progress=False)
+    text = str(err.value)
+    assert "\n" not in text
+    assert text == ("preset 'torus': a toroidal map needs a cylindrical sample, and box.h5 is "
+                    "a box_triaxial test's history (a box sample: 32 spheres, walls: 6 planes, "
+                    "no cylinder wall); pass cylinder=Cylinder(radius, height, center) to draw "
+                    "one anyway")
+    assert cli.main(["render", str(h), "--preset", "torus", "--out",
+                     str(tmp_path / "c.png")]) == 2
+    assert frames.render_frames(h, tmp_path / "c.png", preset="torus", part="sand",
+                                cylinder=Cylinder(2e-3, 4e-3, center=(2e-3, 2e-3, 0.0)),
+                                window_size=(200, 120), progress=False)[0].is_file()
+
+
+def test_frame_title_says_step_time_and_strain(triaxial, tmp_path, monkeypatch):
+    """The default title of a history frame, read back from the picture's text actor:
+    ``step N · t = T ms · axial strain E %`` for a triaxial test (the strain of the frame's
+    record, 1 - H/H0 from the last isotropic record; ``isotropic stage`` before it);
+    without strain for another history; ``title=`` overrides."""
+    from engine.analysis import loading_curves
+    from workbench import render
+
+    from .scenes import texsol_cylinder
+
+    history, res = triaxial
+    rec = io.read_history(history, frames=False)
+    stage = rec.extra["stage"]
+    H0 = rec.extra["height"][np.flatnonzero(stage >= 1)[0] - 1]
+    titles = []
+    real = render.plotter
+
+    def spy(*args, **kw):
+        pl = real(*args, **kw)
+        titles.append(pl.renderer.actors["title"].GetInput() if "title" in pl.renderer.actors
+                      else None)
+        return pl
+
+    monkeypatch.setattr(render, "plotter", spy)
+    frames.render_frames(history, tmp_path / "w", frames="all", preset="wire",
+                         window_size=(200, 150), progress=False)
+    n = io.frame_count(history)
+    assert len(titles) == n
+    steps, times = io.frame_index(history)
+    last = int(np.flatnonzero(rec.step == steps[-1])[0])
+    e = 1.0 - rec.extra["height"][last] / H0
+    assert titles[-1] == f"step {steps[-1]} · t = {1e3 * times[-1]:.4g} ms · axial strain " \
+                         f"{100 * e:.2f} %"
+    assert 0.9 <= 100 * e <= 1.1                      # the run ends at 1 % strain
+    assert titles[0] == "step 0 · t = 0 s · isotropic stage"
+    curves = loading_curves(rec)
+    assert np.isnan(curves["strain"][0])
+    # the movie and common_clim draw the same frames with the same titles
+    titles.clear()
+    frames.write_movie(history, tmp_path / "m.gif", frames="-1", preset="forces",
+                       window_size=(160, 120), progress=False)
+    assert titles == [f"step {steps[-1]} · t = {1e3 * times[-1]:.4g} ms · axial strain "
+                      f"{100 * e:.2f} %"]
+    titles.clear()
+    frames.render_frames(history, tmp_path / "x.png", preset="wire", title="mine",
+                         window_size=(160, 120), progress=False)
+    assert titles == ["mine"]
+    # another history: step and time only
+    titles.clear()
+    plain = _plain_history(tmp_path / "plain.h5",
+                           lambda: texsol_cylinder(n_sand=40, wire_beads=8, steps=0)[:2])
+    frames.render_frames(plain, tmp_path / "p.png", preset="torus", window_size=(300, 160),
+                         progress=False)
+    assert titles == ["step 20 · t = 2 ms"]

@@ -8,6 +8,7 @@
                                              its live viewer)
     nscd render RUN.h5 [--frames N|A:B|all] [--preset beads|wire|forces|torus] [--camera ...]
                [--window-size WxH] [--clim LO,HI] [--out PNG|DIR] [--movie FILE.mp4|.gif]
+               [--axes] [--weak] [--color-by kind|speed|group] [--cut X,Y,Z]
     nscd export RUN.h5 OUTDIR                every frame of a history as VTU + a PVD, with
                                              each frame's step, time, strain and stresses
                                              as field data, and OUTDIR/open_in_paraview.py
@@ -404,6 +405,15 @@ def render_options(a) -> dict:
             raise ValueError(f"--cut is for --preset beads (got --preset {a.preset})")
         opts["cut"] = tuple(_numbers(a.cut, 3, "X,Y,Z (the side of the sample left out)",
                                      "--cut"))
+    if getattr(a, "weak", False):
+        if a.preset != "forces":
+            raise ValueError(f"--weak is for --preset forces (got --preset {a.preset})")
+        opts["weak"] = True
+    if getattr(a, "axes", False):
+        if a.preset == "torus":
+            raise ValueError("--axes is for the 3D presets: the torus map's section always "
+                             "has its axes in mm")
+        opts["axes"] = True
     return opts
 
 
@@ -584,6 +594,11 @@ def parser() -> argparse.ArgumentParser:
     g.add_argument("--movie", metavar="FILE.mp4|FILE.gif",
                    help="every frame (or --frames) into one movie instead of PNGs")
     g.add_argument("--fps", type=float, default=10.0, help="movie frames per second (default 10)")
+    g.add_argument("--axes", action="store_true",
+                   help="draw the bounds as axes with ticks in mm (beads, wire, forces)")
+    g.add_argument("--weak", action="store_true",
+                   help="forces: also draw the weak network (thin grey lines; default: the "
+                        "strong network only, fn > mean fn)")
     g.set_defaults(fn=cmd_render)
     e = sub.add_parser("export", help="export every frame of a history to a ParaView series "
                        "and OUTDIR/open_in_paraview.py (paraview --script=OUTDIR/"

@@ -1075,7 +1075,9 @@ def make_figures(curves: dict, scale: Scale, fig_dir: Path, chosen=None) -> dict
     # Fig. 14
     if want("fig14"):
         res, labs = [], []
-        for tag, lab in (("sand", "sand"), ("k0.2", "elastic k=0.2 N"), ("rigid", "rigid")):
+        # legends in words (figures.law_label's wording)
+        for tag, lab in (("sand", figures.SAND_ONLY), ("k0.2", "elastic wire, k = 0.2 N"),
+                         ("rigid", "rigid wire")):
             for s in scale.fig14_seeds:
                 t = c(f"cylinder_{tag}_seed{s}")
                 if t is not None:

@@ -119,6 +119,15 @@ def test_nscd_render_frames_movie_and_bad_options(history, tmp_path, capsys, mon
                      "--camera", "front", "--clim", "0,0.5"]) == 0
     assert (tmp_path / "run_beads.png").stat().st_size > 1000
     assert not list(history.parent.glob("*.png"))          # never beside the input
+    seen = {}                                    # --axes and --weak reach the pictures
+    monkeypatch.setattr(cli, "render_options", lambda a, f=cli.render_options:
+                        seen.setdefault("opts", f(a)))
+    assert cli.main(["render", str(history), "--preset", "forces", "--weak", "--axes",
+                     "--out", str(tmp_path / "fw.png"), "--window-size", "160x120"]) == 0
+    assert seen["opts"]["weak"] is True and seen["opts"]["axes"] is True
+    assert (tmp_path / "fw.png").stat().st_size > 1000
+    monkeypatch.undo()
+    monkeypatch.chdir(tmp_path)
     assert cli.main(["render", str(history), "--movie", str(tmp_path / "f.gif"),
                      "--frames", "0:3", "--window-size", "160x120"]) == 0
     import imageio.v3 as iio
@@ -131,7 +140,9 @@ def test_nscd_render_frames_movie_and_bad_options(history, tmp_path, capsys, mon
                        (["--movie", "x.avi"], "must end in .mp4 or .gif"),
                        (["--preset", "wire", "--color-by", "speed"], "--color-by is for "
                                                                       "--preset beads"),
-                       (["--cut", "1,2"], "--cut '1,2': expected X,Y,Z")):
+                       (["--cut", "1,2"], "--cut '1,2': expected X,Y,Z"),
+                       (["--weak"], "--weak is for --preset forces (got --preset beads)"),
+                       (["--preset", "torus", "--axes"], "--axes is for the 3D presets")):
         assert cli.main(["render", str(history), *args]) == 2, args
         err = capsys.readouterr().err.strip()
         assert says in err and "\n" not in err, (args, err)

@@ -189,6 +189,15 @@ def test_curves_of_a_triaxial_history(tmp_path):
     sc.update(src.state(src.n_frames - 1),
               ViewOptions(layers=dict(ViewOptions().layers, torus=True)))
     assert "torus" in sc.plotter.actors
+    # with its history, the map is on the run's recorded cylinder, as nscd render's
+    from workbench.frames import frame_cylinder
+
+    sc.history = str(h)
+    sc.update(src.state(src.n_frames - 1),
+              ViewOptions(layers=dict(ViewOptions().layers, torus=True)))
+    cyl = frame_cylinder(h, frame=src.n_frames - 1)
+    x_max = sc.plotter.actors["torus"].GetBounds()[1]
+    assert x_max == pytest.approx(cyl.center[0] + cyl.radius, rel=1e-9)   # θ = 0 edge
     sc.plotter.close()
 
 

@@ -13,6 +13,7 @@ the server was given.
 from __future__ import annotations
 
 import asyncio
+import os
 import time
 from pathlib import Path
 
@@ -148,6 +149,8 @@ class Viewer:
             self.scene.cylinder = "sample"
         else:
             self.scene.cylinder = None
+        self.scene.history = (source.path if self.scene.cylinder == "sample"
+                              and os.path.isfile(source.path) else None)
         self._states = {}
         self._curves = curves_of(source.records) if source.records is not None else None
         self._fig_sent = False                 # the curves panel has this run's curves

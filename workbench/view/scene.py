@@ -102,9 +102,13 @@ class ViewScene:
         self._drawn = {}          # what a pick can hit: layer -> arrays of the frame
         self.state = None
         self.bar = None           # (title, factor) of the colour bar shown
-        #: the cylinder of the toroidal map: "wall" (the scene's cylinder), "sample" (the
-        #: vertical cylinder holding the spheres, each frame: a membrane test) or None
+        #: the cylinder of the toroidal map: "wall" (the scene's cylinder), "sample" (a
+        #: membrane test's sample: the cylinder its history recorded at the frame, as
+        #: ``nscd render`` takes it, :func:`workbench.frames.frame_cylinder`, when
+        #: ``history`` is set; else the vertical cylinder holding the spheres) or None
         self.cylinder = None
+        #: the history file the frames come from (the run's recorded cylinder)
+        self.history = None
         self._retired, self._on_show = set(), []          # (see retire)
 
     # ---------------------------------------------------------------- drawing
@@ -329,8 +333,14 @@ class ViewScene:
         from engine.analysis import toroidal_map
 
         try:
-            cyl = (render._cylinder_of(self.model, state) if self.cylinder == "wall"
-                   else meshes.sample_cylinder(self.model, state))
+            if self.cylinder == "wall":
+                cyl = render._cylinder_of(self.model, state)
+            elif self.history is not None:        # the run's own cylinder, as nscd render's
+                from ..frames import frame_cylinder
+
+                cyl = frame_cylinder(self.history, model=self.model, state=state)
+            else:
+                cyl = meshes.sample_cylinder(self.model, state)
             tmap = toroidal_map(self.model, state, cyl, n_r=5, n_z=10, part="wire")
         except ValueError:
             return

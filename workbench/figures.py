@@ -210,10 +210,10 @@ def _axes(nrows=1, ncols=1, size=(6.4, 4.4)):
     return fig, fig.subplots(nrows, ncols, squeeze=False)
 
 
-def _save(fig, path) -> Path:
+def _save(fig, path, tight: bool = False) -> Path:
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
-    fig.savefig(path)
+    fig.savefig(path, **({"bbox_inches": "tight", "pad_inches": 0.1} if tight else {}))
     return path
 
 
@@ -264,9 +264,13 @@ def stress_strain_figure(results, path, *, labels=None, title=None, reference=No
     title : str, optional
         A test's name (``"cylinder_triaxial"``) is put in words (``"cylinder triaxial test,
         confining pressure 15 kPa"``); another title is kept.  Default: the results' test.
-    reference : TestResult, optional
-        A sand-only run drawn as a dark grey dashed line in the deviator and volumetric
-        panels, labelled ``reference_label`` (it has no wire stress).
+    reference : TestResult or list of them, optional
+        Sand-only runs drawn as grey dashed lines in the deviator and volumetric panels,
+        labelled ``reference_label`` (a string, or one per reference run; they have no wire
+        stress).
+
+    Runs without wire stress (all zero) are left out of the wire panel.  With more than
+    four legend entries the legend goes to the right of the panels, off the curves.
 
     The stresses are shown in a unit chosen for reading (Pa or kPa,
     :func:`workbench.units.reading_unit`); strains in %.
@@ -278,7 +282,14 @@ def stress_strain_figure(results, path, *, labels=None, title=None, reference=No
         labels = [lab if isinstance(lab, str) else law_label(lab) for lab in labels]
         if len(labels) != len(results):
             raise ValueError(f"labels: one per result ({len(results)}), got {len(labels)}")
-    curves = results + ([reference] if reference is not None else [])
+    refs = [] if reference is None else (list(reference) if isinstance(reference, (list, tuple))
+                                         else [reference])
+    ref_labels = ([reference_label] * len(refs) if isinstance(reference_label, str)
+                  else list(reference_label))
+    if len(ref_labels) != len(refs):
+        raise ValueError(f"reference_label: one per reference run ({len(refs)}), got "
+                         f"{len(ref_labels)}")
+    curves = results + refs
 
     def largest(key, runs):
         values = [np.abs(np.asarray(getattr(r, key), dtype=float)) for r in runs]
@@ -287,29 +298,39 @@ def stress_strain_figure(results, path, *, labels=None, title=None, reference=No
 
     q_factor, q_unit = reading_unit("Pa", largest("deviator", curves))
     w_factor, w_unit = reading_unit("Pa", largest("wire_equivalent", results))
-    fig, ax = _axes(3, 1, size=(6.4, 8.0))
+    outside = len(curves) > 4                        # the legend right of the panels
+    fig, ax = _axes(3, 1, size=(9.0 if outside else 6.4, 8.0))
     for r, lab in zip(results, labels):
         e = 100 * np.asarray(r.axial_strain)
         ax[0, 0].plot(e, np.asarray(r.deviator) * q_factor, label=lab)
         ax[1, 0].plot(e, 100 * np.asarray(r.volumetric_strain), label=lab)
-        ax[2, 0].plot(e, np.asarray(r.wire_equivalent) * w_factor, label=lab)
-    if reference is not None:
-        style = dict(color="0.2", ls="--", lw=1.3, label=reference_label)
-        e = 100 * np.asarray(reference.axial_strain)
-        ax[0, 0].plot(e, np.asarray(reference.deviator) * q_factor, **style)
-        ax[1, 0].plot(e, 100 * np.asarray(reference.volumetric_strain), **style)
+        w = np.asarray(r.wire_equivalent, dtype=float)
+        if np.any(w[np.isfinite(w)] != 0):           # a sand run has no wire stress
+            ax[2, 0].plot(e, w * w_factor, label=lab)
+        else:
+            ax[2, 0].plot([], [])                    # keep the colour of this run
+    greys = [0.2] if len(refs) <= 1 else np.linspace(0.15, 0.55, len(refs))
+    for ref, lab, g in zip(refs, ref_labels, greys):
+        style = dict(color=str(round(float(g), 2)), ls="--", lw=1.3, label=lab)
+        e = 100 * np.asarray(ref.axial_strain)
+        ax[0, 0].plot(e, np.asarray(ref.deviator) * q_factor, **style)
+        ax[1, 0].plot(e, 100 * np.asarray(ref.volumetric_strain), **style)
     ax[0, 0].set_ylabel(f"deviator q = σ₁ − σ₃ [{q_unit}]")
     ax[1, 0].set_ylabel("volumetric strain [%]\n(contraction > 0)")
     ax[2, 0].set_ylabel(f"wire equivalent stress\n‖dev σ_w‖ [{w_unit}]")
     ax[2, 0].set_xlabel("axial strain [%] (compression > 0)")
     for a in ax[:, 0]:
         a.grid(alpha=0.3)
-    if ax[0, 0].get_legend_handles_labels()[0]:
+    entries = len(ax[0, 0].get_legend_handles_labels()[0])
+    if outside:                                      # off the curves, right of the panels
+        ax[0, 0].legend(loc="upper left", bbox_to_anchor=(1.02, 1.0), fontsize=_LEGEND_SIZE,
+                        borderaxespad=0.0)
+    elif entries:
         ax[0, 0].legend(loc="best", fontsize=_LEGEND_SIZE)
     words = _stress_strain_title(title, curves)
     if words:
         ax[0, 0].set_title(words, fontsize=11)
-    return _save(fig, path)
+    return _save(fig, path, tight=outside)
 
 
 def stiffness_figure(k, H, path, *, H_rigid=None) -> Path:

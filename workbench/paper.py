@@ -1074,18 +1074,19 @@ def make_figures(curves: dict, scale: Scale, fig_dir: Path, chosen=None) -> dict
         out["fig13"] = _save(fig, fig_dir / "fig13_cylinder.png")
     # Fig. 14
     if want("fig14"):
-        res, labs = [], []
-        # legends in words (figures.law_label's wording)
+        res, labs, refs, ref_labs = [], [], [], []
+        # legends in words (figures.law_label's wording); the sand runs as the reference
         for tag, lab in (("sand", figures.SAND_ONLY), ("k0.2", "elastic wire, k = 0.2 N"),
                          ("rigid", "rigid wire")):
             for s in scale.fig14_seeds:
                 t = c(f"cylinder_{tag}_seed{s}")
                 if t is not None:
-                    res.append(_res(t, lab))
-                    labs.append(f"{lab}, seed {s}")
-        if res:
-            out["fig14"] = figures.stress_strain_figure(res, fig_dir / "fig14_stress_strain.png",
-                                                        labels=labs, title="Fig. 14: cylinder triaxial")
+                    (refs if tag == "sand" else res).append(_res(t, lab))
+                    (ref_labs if tag == "sand" else labs).append(f"{lab}, seed {s}")
+        if res or refs:
+            out["fig14"] = figures.stress_strain_figure(
+                res, fig_dir / "fig14_stress_strain.png", labels=labs,
+                title="Fig. 14: cylinder triaxial", reference=refs, reference_label=ref_labs)
         else:
             out["fig14"] = _empty(fig_dir / "fig14_stress_strain.png", "Fig. 14: runs missing")
     # Fig. 15
@@ -1097,15 +1098,17 @@ def make_figures(curves: dict, scale: Scale, fig_dir: Path, chosen=None) -> dict
             if t is None:
                 continue
             e = np.asarray(t["axial_strain"])
-            line, = a.plot(100 * e, t["wire_equivalent"], lw=1, label=tag)
+            words = "rigid wire" if tag == "rigid" else f"elastic wire, k = {tag[1:]} N"
+            line, = a.plot(100 * e, t["wire_equivalent"], lw=1, label=words)
             f = h_fit(e, t["wire_equivalent"])
             if f is not None:
                 xs = e[f["start"]:]
                 a.plot(100 * xs, f["H"] * xs + f["intercept"], "--", color=line.get_color(), lw=0.8)
+        a.plot([], [], "--", color="0.3", lw=0.8, label="fitted line (H, Table 2)")
         a.set_xlabel("axial strain ε_zz [%]")
         a.set_ylabel("wire equivalent stress ‖dev σ_w‖ [Pa]")
         a.grid(alpha=0.3)
-        a.legend(fontsize=7, ncol=2)
+        a.legend(fontsize=8, ncol=2, loc="best")
         out["fig15"] = _save(fig, fig_dir / "fig15_wire_equivalent.png")
     # Fig. 16
     if want("fig16"):

@@ -18,9 +18,9 @@ def drawn(monkeypatch):
     figs = []
     save = figures._save
 
-    def keep(fig, path):
+    def keep(fig, path, **kw):
         figs.append(fig)
-        return save(fig, path)
+        return save(fig, path, **kw)
 
     monkeypatch.setattr(figures, "_save", keep)
     return figs
@@ -98,6 +98,33 @@ def test_stress_strain_legend_in_words_with_the_sand_reference(tmp_path, drawn):
         assert np.allclose(matplotlib.colors.to_rgb(line.get_color()), 0.2)
     np.testing.assert_allclose(q.lines[-1].get_ydata(), ref.deviator / 1e3)
     assert len(wire.lines) == 2                      # the two wires, no reference
+
+
+def test_stress_strain_with_a_reference_per_seed(tmp_path, drawn):
+    """Fig. 14's layout: the sand runs of each seed as dashed grey references, each with
+    its label; a sand run among the results draws nothing in the wire panel; with more
+    than four entries the legend sits right of the panels (its box off the axes)."""
+    runs = [_run(laws.ElasticWire(stiffness=0.2), 14e3), _run(laws.RigidWire(), 18e3),
+            _run(None, 10e3)]
+    refs = [_run(None, 11e3), _run(None, 12e3)]
+    figures.stress_strain_figure(runs, tmp_path / "f14.png", reference=refs,
+                                 labels=["k0.2", "rigid", "sand again"],
+                                 reference_label=["sand only, seed 0", "sand only, seed 1"])
+    fig = drawn[-1]
+    q, vol, wire = fig.axes
+    assert _legend(q) == ["k0.2", "rigid", "sand again", "sand only, seed 0",
+                          "sand only, seed 1"]
+    dashed = [ln for ln in q.lines if ln.get_linestyle() == "--"]
+    assert [ln.get_label() for ln in dashed] == ["sand only, seed 0", "sand only, seed 1"]
+    assert len({ln.get_color() for ln in dashed}) == 2           # two greys
+    np.testing.assert_allclose(dashed[1].get_ydata(), refs[1].deviator / 1e3)
+    assert [len(ln.get_xdata()) for ln in wire.lines] == [20, 20, 0]   # no sand line
+    fig.canvas.draw()
+    box = q.get_legend().get_window_extent()
+    assert box.x0 >= q.get_window_extent().x1                    # right of the panel
+    with pytest.raises(ValueError, match="reference_label: one per reference run"):
+        figures.stress_strain_figure(runs, tmp_path / "x.png", reference=refs,
+                                     reference_label=["one"])
 
 
 def test_stress_strain_default_words_and_labels_as_laws(tmp_path, drawn):

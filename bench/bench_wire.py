@@ -380,12 +380,13 @@ def _length_error(ell, L, unilateral: bool) -> float:
     return float(np.maximum(e, 0.0).max() if unilateral else np.abs(e).max())
 
 
-def run_chain(law, theta: float, p: dict) -> dict:
+def run_chain(law, theta: float, p: dict, chain_solve: bool = False) -> dict:
     r = p["bead_radius"]
     a = p["spacing_r"] * r
     pts = arc(p["n_beads"] - 1, a, p["span_ratio"])
     model, state, b = wire_scene(pts, law, r, p["density"], p["gravity"], p["dt"], theta,
                                  p["tol"], p["max_iter"])
+    model = model.with_options(chain_solve=chain_solve)
     L = model.link_ref_length
     nl = L.shape[0]
     rigid = not np.isfinite(law.stiffness_value)
@@ -437,7 +438,8 @@ def run_chain(law, theta: float, p: dict) -> dict:
     finite = bool(np.isfinite(state.position).all() and np.isfinite(state.vel6).all())
     z = state.position[b, 2]
     out = dict(
-        law=_law_name(law), theta=theta, steps_requested=steps, steps_done=done,
+        law=_law_name(law), theta=theta, chain_solve=bool(chain_solve),
+        steps_requested=steps, steps_done=done,
         stopped_by=stopped_by, simulated_time_s=float(state.time), wall_s=pc() - start,
         sweeps=dict(mean=float(its.mean()), median=float(np.median(its)), max=int(its.max()),
                     last_10pct_mean=float(its[tail].mean()),
@@ -503,13 +505,33 @@ def theta_check(p: dict) -> dict:
 
 
 def bench_chain(p: dict) -> dict:
+    """Each law and θ with the plain link sweeps, then with each wire solved as one chain
+    (``Options.chain_solve``, :mod:`engine.solver.chains`), same chain, same steps: the
+    ratios of sweeps per step and of step time (plain / chain) in ``chain_solve_gain``."""
     out = {}
+    gain = {}
     for theta in p["thetas"]:
         for name, law in chain_laws(p["stiffness"]).items():
             key = f"{name}_theta{theta:g}"
-            r = run_chain(law, theta, p)
-            out[key] = r
-            print(_fmt_chain(r), flush=True)
+            for cs in (False, True):
+                r = run_chain(law, theta, p, chain_solve=cs)
+                out[key + ("_chains" if cs else "")] = r
+                print(_fmt_chain(r), flush=True)
+            plain, ch = out[key], out[key + "_chains"]
+            gain[key] = dict(sweeps_plain=plain["sweeps"]["mean"],
+                             sweeps_chains=ch["sweeps"]["mean"],
+                             sweeps_ratio=plain["sweeps"]["mean"] / ch["sweeps"]["mean"],
+                             step_ms_plain=plain["step_ms"]["mean"],
+                             step_ms_chains=ch["step_ms"]["mean"],
+                             step_time_ratio=plain["step_ms"]["mean"] / ch["step_ms"]["mean"],
+                             same_steps=plain["steps_done"] == ch["steps_done"])
+            g = gain[key]
+            print(f"    chain solve: {g['sweeps_plain']:.0f} -> {g['sweeps_chains']:.1f} sweeps/step "
+                  f"({g['sweeps_ratio']:.0f}x fewer), {g['step_ms_plain']:.2f} -> "
+                  f"{g['step_ms_chains']:.2f} ms/step ({g['step_time_ratio']:.1f}x)"
+                  + ("" if g["same_steps"] else "  [different step counts: wall-time cap]"),
+                  flush=True)
+    out["chain_solve_gain"] = gain
     return out
 
 
@@ -707,7 +729,8 @@ def _fmt_chain(r: dict) -> str:
     extra = (f", strain max {r['strain_end']['max']:.2e} (T_max/k {r['strain_end']['T_max_over_k']:.2e})"
              if "strain_end" in r else
              f", |l/L-1| end {r['link_length_error']['end']:.2e} (max {r['link_length_error']['max_over_run']:.2e})")
-    return (f"  {r['law']:<20s} theta {r['theta']:<4g}: {r['steps_done']} steps ({r['stopped_by']}); "
+    return (f"  {r['law']:<20s} theta {r['theta']:<4g}{' chains' if r.get('chain_solve') else ''}: "
+            f"{r['steps_done']} steps ({r['stopped_by']}); "
             f"sweeps/step mean {s['mean']:.0f}, max {s['max']}, {s['hit_max_iter']} at max_iter; "
             f"{r['step_ms']['mean']:.1f} ms/step "
             f"({r['solve_ns_per_link_per_sweep']:.1f} ns/link/sweep in solve)\n"
@@ -854,8 +877,14 @@ def main(argv=None) -> int:
         **{f"link_ns_{k}": v["ns_per_link"]["median_ns"] for k, v in ls["laws"].items()},
         **{f"link_over_contact_{k}": v["ratio_link_over_contact"] for k, v in ls["laws"].items()},
         **{f"link_order_speedup_{k}": v["speedup_over_along_wire_order"] for k, v in ls["laws"].items()},
-        **{f"chain_sweeps_mean_{k}": v["sweeps"]["mean"] for k, v in out["chain"].items()},
-        **{f"chain_hit_max_iter_{k}": v["sweeps"]["hit_max_iter"] for k, v in out["chain"].items()},
+        **{f"chain_sweeps_mean_{k}": v["sweeps"]["mean"] for k, v in out["chain"].items()
+           if k != "chain_solve_gain"},
+        **{f"chain_hit_max_iter_{k}": v["sweeps"]["hit_max_iter"] for k, v in out["chain"].items()
+           if k != "chain_solve_gain"},
+        **{f"chain_solve_sweeps_ratio_{k}": v["sweeps_ratio"]
+           for k, v in out["chain"]["chain_solve_gain"].items()},
+        **{f"chain_solve_step_time_ratio_{k}": v["step_time_ratio"]
+           for k, v in out["chain"]["chain_solve_gain"].items()},
         **{f"string_order_{k}": v["fitted_order"] for k, v in out["string"]["order"].items()},
         **{f"no_wire_{k}_iterate_over_bare": v["ratio_a_over_b"]["of_medians"] for k, v in r4.items()},
         **{f"no_wire_{k}_with_wire_over_without_same_arrays": v["ratio_c_over_a2"]["of_medians"]

@@ -85,6 +85,13 @@ class Options(Checked):
         the domain-decomposed Gauss–Seidel of :mod:`engine.solver.parallel` (T domains swept
         at once; the same physics within ``tol``, results reproducible for a given T); it
         pays on large dense scenes only (docs/speed.md).
+    chain_solve : bool
+        Solve each wire as one chain in every NLGS sweep (:mod:`engine.solver.chains`:
+        the links' impulses exactly, given the contacts', a tridiagonal system per wire
+        with the wires' λ >= 0 as a complementarity) instead of one Gauss–Seidel pass over
+        its links: tension crosses the whole chain in one sweep.  The same converged
+        answer and residual.  For now on the unmixed serial sweep only: refused with
+        ``anderson > 0``, ``hot_sweeps > 0`` or ``threads > 1``.  Default False.
     max_overlap : float
         Largest overlap of a contact at the end of a step's detection, as a fraction of the
         smaller radius of its two bodies, past which :func:`engine.run` stops with a
@@ -107,6 +114,7 @@ class Options(Checked):
     threads: int = Field(1, ge=1, le=64)
     anderson: int = Field(0, ge=0, le=16)
     hot_sweeps: int = Field(0, ge=0, le=8)
+    chain_solve: bool = False
     max_overlap: float = Field(2.0, gt=0.0, le=1e3, allow_inf_nan=False)
 
     _hot_alone = model_validator(mode="after")(lambda self: no_solver_conflict(self))
@@ -116,16 +124,22 @@ def no_solver_conflict(m):
     """``m`` (a record with ``hot_sweeps``, ``anderson``, ``relax`` and ``threads``) when
     its NLGS options go together, else ValueError (:func:`solver_conflict`): the validator
     of :class:`Options` and of the tests' parameter models."""
-    problem = solver_conflict(m.hot_sweeps, m.anderson, m.relax, m.threads)
+    problem = solver_conflict(m.hot_sweeps, m.anderson, m.relax, m.threads,
+                              bool(getattr(m, "chain_solve", False)))
     if problem:
         raise ValueError(problem)
     return m
 
 
-def solver_conflict(hot_sweeps, anderson, relax, threads) -> str | None:
+def solver_conflict(hot_sweeps, anderson, relax, threads, chain_solve=False) -> str | None:
     """Why these NLGS options do not go together (None: they do): the hot re-sweeps and
-    over-relaxation work on the unmixed sweep, over-relaxation on one thread only.  Shared
-    by :class:`Options` and the ``nscd run`` files, which check before anything runs."""
+    over-relaxation work on the unmixed sweep, over-relaxation on one thread only, the
+    chain solve on the unmixed serial sweep.  Shared by :class:`Options` and the ``nscd
+    run`` files, which check before anything runs."""
+    if chain_solve and (anderson > 0 or hot_sweeps or threads > 1):
+        return (f"chain_solve=True works with the unmixed serial sweep only (for now): set "
+                f"anderson=0 (got {anderson}), hot_sweeps=0 (got {hot_sweeps}) and threads=1 "
+                f"(got {threads}), or chain_solve=False")
     if hot_sweeps and anderson > 0:
         return (f"hot_sweeps={hot_sweeps} works with the unmixed sweep only: set anderson=0 "
                 f"(got {anderson}), or hot_sweeps=0")

@@ -1,0 +1,406 @@
+"""Each wire solved as one chain inside the NLGS loop (``Options(chain_solve=True)``).
+
+Gauss–Seidel passes tension along a chain one link per sweep: a 1 000-bead chain needs
+thousands of sweeps a step.  A wire is a chain: given the contacts' current impulses, its
+links' impulses λ (tension positive: −λ n on bead i, +λ n on bead j) satisfy one linear
+system, each link coupled to its two neighbours through the shared beads only.  With
+u_l = n_l·(v_i − v_j) the link's normal velocity, u_l = u_l⁰ − Σ_l' A_ll' λ_l' where u⁰ is
+the velocity without the chain's impulses and
+
+    A_ll = W_l = 1/m_i + 1/m_j,    A_l,l+1 = −s s' (1/m_b) n_l·n_l+1,
+
+b the bead both links hold and s, s' = +1 / −1 as b is their first / second bead (−1 / +1
+for the impulse's sign on it).  The local law of every link (Eq. 9, 11, 13, 15 after the
+change of variables of Eq. 8, :func:`engine.solver.nlgs.link_sweep`) is then
+
+    rods (Eq. 9, 11):  (A + C) λ = b,      b_l = u_l⁰ + (g_l − L*_l)/h,
+    wires (Eq. 13, 15): λ >= 0, (A + C) λ − b >= 0, λ·((A + C) λ − b) = 0,
+
+C = diag(L/(k h²)) the compliance of the elastic laws (0 for the rigid ones) and L* the
+length that keeps the next predicted length exact (computed from the velocities at the
+start of the chain's solve, as the sweep computes it at each link's update).  The matrix
+is tridiagonal (an open wire: Thomas' algorithm) or cyclic tridiagonal (a closed wire:
+Sherman–Morrison on top of Thomas); the wires' complementarity is solved by block
+principal pivoting on the active set (the links in tension), which ends in a few passes
+on these diagonally dominant matrices, or, when it cycles (seen on a 1 000-bead wire
+falling slack and taut: two steps of 16 000 sweeps), by Murty's least-index rule, one
+link flipped a pass, which ends for a positive definite matrix; after 4 m passes of it
+the solve projects its last answer on λ >= 0 and the NLGS loop goes on.  Broken links
+and rigid links between two immobile beads (``wl[l, 1] == 0``) stay at 0 and split the
+chain.  Relaxation ω applies to the chain's answer as to a link's: λ ← λ₀ + ω (λ* − λ₀),
+then λ >= 0 for the wires.
+
+At its fixed point the chain solve and the link sweep satisfy the same equations, so the
+converged impulses are the same (tested at tol 1e-10); the residual is the same Quad norm
+(the links' Σ(W Δλ)² and Σ(W λ)² added to the contacts').
+
+Kernels take plain contiguous arrays; the work arrays (size n_links) are allocated once
+per step by the caller.
+"""
+from __future__ import annotations
+
+import numpy as np
+from numba import njit
+
+from ..model import DYN_INV_MASS
+from .nlgs import _apply_link, link_sweep, sweep
+
+
+#: Rounds of "solve, then L* at the answer" per chain solve (module doc).
+LSTAR_ROUNDS = 12
+
+#: Passes of block principal pivoting before Murty's one-link-a-pass rule takes over, and
+#: the cap of Murty's passes per link of the chain (then the answer is projected on λ >= 0).
+BLOCK_PASSES = 8
+MURTY_PASSES_PER_LINK = 4
+
+
+@njit(cache=True)
+def link_chains(nl, link_i, link_j, starts, closed):
+    """Split the links into chains, the maximal runs of consecutive links that share a
+    bead (``link_j[k - 1] == link_i[k]``: the scene stores each wire's links in order).
+    ``starts[c]`` and ``starts[c + 1]`` bound chain c; ``closed[c]`` is 1 when its last
+    link ends on its first link's first bead (a closed wire, 3 links or more).  Returns the
+    number of chains."""
+    nc = 0
+    for k in range(nl):
+        if k == 0 or link_i[k] != link_j[k - 1]:
+            starts[nc] = k
+            nc += 1
+    starts[nc] = nl
+    for c in range(nc):
+        a = starts[c]
+        b = starts[c + 1]
+        closed[c] = 1 if (b - a >= 3 and link_j[b - 1] == link_i[a]) else 0
+    return nc
+
+
+@njit(cache=True, inline="always")
+def _coupling(l, l2, link_i, link_j, normal, body_dyn):
+    """A_{l,l2} of two links sharing one bead (0 if they share none)."""
+    i1 = link_i[l]
+    j1 = link_j[l]
+    i2 = link_i[l2]
+    j2 = link_j[l2]
+    if j1 == i2 or j1 == j2:
+        bb = j1
+        s = -1.0
+    elif i1 == i2 or i1 == j2:
+        bb = i1
+        s = 1.0
+    else:
+        return 0.0
+    s2 = -1.0 if bb == i2 else 1.0
+    dot = (normal[l, 0] * normal[l2, 0] + normal[l, 1] * normal[l2, 1]
+           + normal[l, 2] * normal[l2, 2])
+    return -s * s2 * body_dyn[bb, DYN_INV_MASS] * dot
+
+
+@njit(cache=True, inline="always")
+def _thomas(a, b, d, e, rhs, act, corner_row, corner_val, out, cp, dp):
+    """Solve rows a..b-1 of the tridiagonal system (diagonal d, off-diagonal e[l] between
+    l and l+1, right side rhs), rows with ``act != 1`` replaced by λ = 0 (and their
+    couplings dropped); ``corner_row`` >= 0 adds ``corner_val`` to that row's right side
+    (the Sherman–Morrison vectors).  Writes ``out``."""
+    prev = 0.0                                  # effective coupling to the row before
+    for l in range(a, b):
+        if act[l] == 1:
+            dd = d[l]
+            rr = rhs[l]
+            nxt = e[l] if (l + 1 < b and act[l + 1] == 1) else 0.0
+        else:
+            dd = 1.0
+            rr = 0.0
+            nxt = 0.0
+        if l == corner_row:
+            rr += corner_val
+        if l > a:
+            den = dd - prev * cp[l - 1]
+            cp[l] = nxt / den
+            dp[l] = (rr - prev * dp[l - 1]) / den
+        else:
+            cp[l] = nxt / dd
+            dp[l] = rr / dd
+        prev = nxt
+    out[b - 1] = dp[b - 1]
+    for l in range(b - 2, a - 1, -1):
+        out[l] = dp[l] - cp[l] * out[l + 1]
+
+
+@njit(cache=True, inline="always")
+def _solve_chain(a, b, cyc, d, e, rhs, act, lam, z, cp, dp):
+    """λ on rows a..b-1 of the (cyclic if ``cyc``) tridiagonal system with the inactive
+    rows at 0.  The cyclic one couples rows b-1 and a by ``e[b - 1]``."""
+    ec = e[b - 1] if (cyc and act[a] == 1 and act[b - 1] == 1) else 0.0
+    if ec == 0.0:
+        _thomas(a, b, d, e, rhs, act, -1, 0.0, lam, cp, dp)
+        return
+    # Sherman–Morrison: M = T' + u vᵀ, u = (γ, 0.., ec), v = (1, 0.., ec/γ), T' the open
+    # tridiagonal with d_a − γ and d_{b-1} − ec²/γ
+    gam = -d[a]
+    da, dl = d[a], d[b - 1]
+    d[a] = da - gam
+    d[b - 1] = dl - ec * ec / gam
+    _thomas(a, b, d, e, rhs, act, -1, 0.0, lam, cp, dp)          # T' y = rhs
+    # T' z = u: the same matrix, right side u (rhs set to 0 through a second pass)
+    for l in range(a, b):
+        z[l] = 0.0
+    _thomas_rhs_u(a, b, d, e, act, gam, ec, z, cp, dp)
+    d[a] = da
+    d[b - 1] = dl
+    vy = lam[a] + ec * lam[b - 1] / gam
+    vz = z[a] + ec * z[b - 1] / gam
+    f = vy / (1.0 + vz)
+    for l in range(a, b):
+        lam[l] -= f * z[l]
+
+
+@njit(cache=True, inline="always")
+def _thomas_rhs_u(a, b, d, e, act, gam, ec, out, cp, dp):
+    """Thomas' algorithm on the same rows as :func:`_thomas`, right side (γ, 0.., ec)."""
+    prev = 0.0
+    for l in range(a, b):
+        if act[l] == 1:
+            dd = d[l]
+            nxt = e[l] if (l + 1 < b and act[l + 1] == 1) else 0.0
+        else:
+            dd = 1.0
+            nxt = 0.0
+        rr = gam if l == a else (ec if l == b - 1 else 0.0)
+        if l > a:
+            den = dd - prev * cp[l - 1]
+            cp[l] = nxt / den
+            dp[l] = (rr - prev * dp[l - 1]) / den
+        else:
+            cp[l] = nxt / dd
+            dp[l] = rr / dd
+        prev = nxt
+    out[b - 1] = dp[b - 1]
+    for l in range(b - 2, a - 1, -1):
+        out[l] = dp[l] - cp[l] * out[l + 1]
+
+
+@njit(cache=True, inline="always")
+def _dlam(k, act, lam, impulse):
+    """The change of link k's impulse the tentative answer makes (0 for a skipped link)."""
+    if act[k] == -1:
+        return 0.0
+    return (lam[k] if act[k] == 1 else 0.0) - impulse[k]
+
+
+@njit(cache=True, inline="always")
+def _on_bead(bb, k, link_i, link_j):
+    """The sign of link k's impulse on bead bb: −1 on its first bead, +1 on its second, 0
+    when bb is not one of its beads."""
+    if bb == link_i[k]:
+        return -1.0
+    if bb == link_j[k]:
+        return 1.0
+    return 0.0
+
+
+@njit(cache=True)
+def _length_terms(a, b, cyc, link_i, link_j, normal, wl, impulse, body_dyn, vel6, act, lam,
+                  uf, rhs):
+    """rhs = uf + (g − L*)/h with L* at the velocities of the tentative answer ``lam``:
+    the beads' velocities now, plus what the changes of the link and of its two
+    neighbours (the links that hold its beads) would add."""
+    for l in range(a, b):
+        if act[l] == -1:
+            continue
+        prv = l - 1 if l > a else (b - 1 if cyc else -1)
+        nxt = l + 1 if l + 1 < b else (a if cyc else -1)
+        i = link_i[l]
+        j = link_j[l]
+        wx = vel6[i, 0] - vel6[j, 0]
+        wy = vel6[i, 1] - vel6[j, 1]
+        wz = vel6[i, 2] - vel6[j, 2]
+        for k in (prv, l, nxt):
+            if k < 0:
+                continue
+            dk = _dlam(k, act, lam, impulse)
+            if dk == 0.0:
+                continue
+            f = (body_dyn[i, DYN_INV_MASS] * _on_bead(i, k, link_i, link_j)
+                 - body_dyn[j, DYN_INV_MASS] * _on_bead(j, k, link_i, link_j)) * dk
+            wx += f * normal[k, 0]
+            wy += f * normal[k, 1]
+            wz += f * normal[k, 2]
+        u = normal[l, 0] * wx + normal[l, 1] * wy + normal[l, 2] * wz
+        L2 = wl[l, 3]
+        ls2 = L2 - (wx * wx + wy * wy + wz * wz - u * u) * wl[l, 4]
+        ls = np.sqrt(ls2 if ls2 > 0.99 * L2 else 0.99 * L2)
+        rhs[l] = uf[l] + (wl[l, 2] - ls) * wl[l, 5]
+
+
+@njit(cache=True)
+def chain_sweep(nc, starts, closed, link_i, link_j, normal, wl, unilateral, impulse, body_dyn,
+                vel6, relax, d, e, rhs, lam, act, z, cp, dp, uf, lp):
+    """Solve every chain exactly given the other impulses (module doc) and apply the
+    change to the beads; returns (Σ(W Δλ)², Σ(W λ)²) as :func:`~engine.solver.nlgs.link_sweep`."""
+    num = 0.0
+    den = 0.0
+    for c in range(nc):
+        a = starts[c]
+        b = starts[c + 1]
+        cyc = closed[c] != 0
+        # the system at the current velocities: diagonal W + c, right side u⁰ + (g − L*)/h
+        for l in range(a, b):
+            iwc = wl[l, 1]
+            if iwc == 0.0:                       # skipped (broken, or immobile ends)
+                d[l] = 1.0
+                rhs[l] = 0.0
+                act[l] = -1
+                continue
+            i = link_i[l]
+            j = link_j[l]
+            nx = normal[l, 0]
+            ny = normal[l, 1]
+            nz = normal[l, 2]
+            wx = vel6[i, 0] - vel6[j, 0]
+            wy = vel6[i, 1] - vel6[j, 1]
+            wz = vel6[i, 2] - vel6[j, 2]
+            u = nx * wx + ny * wy + nz * wz
+            L2 = wl[l, 3]
+            ls2 = L2 - (wx * wx + wy * wy + wz * wz - u * u) * wl[l, 4]
+            ls = np.sqrt(ls2 if ls2 > 0.99 * L2 else 0.99 * L2)
+            d[l] = 1.0 / iwc
+            uf[l] = u + wl[l, 0] * impulse[l]
+            rhs[l] = (wl[l, 2] - ls) * wl[l, 5]
+            act[l] = 1 if (unilateral[l] == 0 or impulse[l] > 0.0) else 0
+        last = b if cyc else b - 1
+        for l in range(a, last):
+            l2 = l + 1 if l + 1 < b else a
+            if wl[l, 1] == 0.0 or wl[l2, 1] == 0.0:
+                e[l] = 0.0
+            else:
+                e[l] = _coupling(l, l2, link_i, link_j, normal, body_dyn)
+        if not cyc:
+            e[b - 1] = 0.0
+        # u⁰ = u + Σ A λ₀: the off-diagonal part (the diagonal one is in uf already)
+        for l in range(a, b):
+            if act[l] == -1:
+                continue
+            if l + 1 < b:
+                uf[l] += e[l] * impulse[l + 1]
+            elif cyc:
+                uf[l] += e[l] * impulse[a]
+            if l > a:
+                uf[l] += e[l - 1] * impulse[l - 1]
+            elif cyc:
+                uf[l] += e[b - 1] * impulse[b - 1]
+            rhs[l] += uf[l]
+        # L* depends on the velocities the solve changes: solve, take L* at the answer, solve
+        # again, until the impulses stop changing (a few rounds; as the sweep takes each
+        # link's L* at the velocities of its own update)
+        for l in range(a, b):
+            lp[l] = 0.0
+        for rnd in range(LSTAR_ROUNDS):
+            # the wires' complementarity: block principal pivoting on the active set (every
+            # violated link flipped at once), then, if that has not settled, Murty's least-
+            # index rule (one link a pass: finite for this positive definite matrix)
+            m = b - a
+            for p in range(BLOCK_PASSES + MURTY_PASSES_PER_LINK * m):
+                _solve_chain(a, b, cyc, d, e, rhs, act, lam, z, cp, dp)
+                single = p >= BLOCK_PASSES
+                changed = 0
+                for l in range(a, b):
+                    flip = False
+                    if act[l] == 1:
+                        flip = unilateral[l] != 0 and lam[l] < 0.0
+                    elif act[l] == 0:
+                        r = rhs[l]
+                        if l + 1 < b:
+                            r -= e[l] * lam[l + 1] if act[l + 1] == 1 else 0.0
+                        elif cyc and act[a] == 1:
+                            r -= e[l] * lam[a]
+                        if l > a:
+                            r -= e[l - 1] * lam[l - 1] if act[l - 1] == 1 else 0.0
+                        elif cyc and act[b - 1] == 1:
+                            r -= e[b - 1] * lam[b - 1]
+                        flip = r > 0.0               # slack, but the chain pulls it taut
+                    if flip:
+                        act[l] = 1 - act[l]
+                        changed += 1
+                        if single:
+                            break
+                if changed == 0:
+                    break
+            top = 0.0
+            moved = 0.0
+            for l in range(a, b):
+                if act[l] == -1:
+                    continue
+                x = lam[l] if act[l] == 1 else 0.0
+                top = max(top, abs(x))
+                moved = max(moved, abs(x - lp[l]))
+                lp[l] = x
+            if rnd > 0 and moved <= 1e-12 * top:
+                break
+            if rnd + 1 < LSTAR_ROUNDS:
+                _length_terms(a, b, cyc, link_i, link_j, normal, wl, impulse, body_dyn, vel6,
+                              act, lam, uf, rhs)
+        for l in range(a, b):
+            if act[l] == -1:
+                continue
+            lam0 = impulse[l]
+            new = lam[l] if act[l] == 1 else 0.0
+            new = lam0 + relax * (new - lam0)
+            if unilateral[l] != 0 and new < 0.0:
+                new = 0.0
+            dl = new - lam0
+            impulse[l] = new
+            _apply_link(link_i[l], link_j[l], dl, normal[l, 0], normal[l, 1], normal[l, 2],
+                        body_dyn, vel6)
+            W = wl[l, 0]
+            num += (W * dl) ** 2
+            den += (W * new) ** 2
+    return num, den
+
+
+#: Chain sweeps a step gets before its links go back to the plain Gauss–Seidel link sweep
+#: for the rest of the step (module doc: the wires' active set and L* can chase each other).
+CHAIN_SWEEPS = 30
+
+
+@njit(cache=True)
+def iterate_chains(n, n_pair, c_i, c_j, frame, w, gterm, mu, ri, rj, impulse, body_dyn, vel6,
+                   relax, tol, max_iter, link_i, link_j, l_normal, wl, l_unilateral, l_impulse,
+                   l_order, done, nc, starts, closed, d, e, rhs, lam, act, z, cp, dp, uf, lp):
+    """Sweep the contacts, then solve each chain (:func:`chain_sweep`), until the Quad
+    residual (over both) is below ``tol`` or ``max_iter`` sweeps are done; after
+    :data:`CHAIN_SWEEPS` sweeps of the step (``done`` counts those of earlier calls), the
+    links are swept by the plain :func:`~engine.solver.nlgs.link_sweep` instead, which
+    converges where the chain solve does not settle.  Returns ``(iterations, residual)``."""
+    if n == 0 and nc == 0:
+        return 0, 0.0
+    res = 0.0
+    nl = link_i.shape[0]
+    for it in range(max_iter):
+        num, den = sweep(n, n_pair, c_i, c_j, frame, w, gterm, mu, ri, rj, impulse, body_dyn,
+                         vel6, relax)
+        if nc > 0:
+            if done + it < CHAIN_SWEEPS:
+                lnum, lden = chain_sweep(nc, starts, closed, link_i, link_j, l_normal, wl,
+                                         l_unilateral, l_impulse, body_dyn, vel6, relax, d, e,
+                                         rhs, lam, act, z, cp, dp, uf, lp)
+            else:
+                lnum, lden = link_sweep(nl, link_i, link_j, l_normal, wl, l_unilateral,
+                                        l_impulse, body_dyn, vel6, relax, l_order)
+            num += lnum
+            den += lden
+        res = np.sqrt(num / den) / relax if den > 0.0 else 0.0
+        if res < tol:
+            return it + 1, res
+    return max_iter, res
+
+
+def chain_workspace(nl: int, link_i, link_j):
+    """(nc, starts, closed, the eight work arrays) for :func:`iterate_chains`."""
+    starts = np.empty(nl + 1, np.int64)
+    closed = np.zeros(max(nl, 1), np.int8)
+    nc = link_chains(nl, link_i, link_j, starts, closed)
+    work = [np.zeros(max(nl, 1)) for _ in range(4)]          # d, e, rhs, lam
+    act = np.zeros(max(nl, 1), np.int8)
+    more = [np.zeros(max(nl, 1)) for _ in range(5)]          # z, cp, dp, uf, lp
+    return (nc, starts, closed, *work, act, *more)

@@ -1,0 +1,119 @@
+"""Each wire solved as one chain (``Options.chain_solve``) on a real test, run three ways,
+one after the other in this process, on one NLGS thread: the demo's TexSol cylinder
+triaxial test (``--test cylinder``, the default: ``nscd demo``'s scale 0.1, 5 % axial
+strain, seed 0, ElasticWire k = 1 N) or the slope deposit (``--test slope``: scale 0.05,
+2 000 steps, ``--law rigid`` for the rigid wire of issue 31's probe):
+
+* ``plain_hot2``: the tests' default solver (plain link sweeps, ``hot_sweeps=2``);
+* ``plain_hot0``: plain link sweeps, ``hot_sweeps=0`` (the chain solve's peer: it does not
+  combine with the hot re-sweeps yet);
+* ``chains_hot0``: ``chain_solve=True``, ``hot_sweeps=0``.
+
+For each: wall time, recorded steps, mean NLGS sweeps per recorded step, steps at
+max_iter, and the answer (cylinder: the final deviator q and wire equivalent stress; slope:
+the maximum slope); the same seed, so the three answers differ by the solver's path
+within its tolerance, not by the seed spread.  The tests have no
+``chain_solve`` keyword yet: ``Scene.compile`` is wrapped for the chain run.
+
+Run:  .venv/bin/python bench/bench_chains.py [--test cylinder|slope] [--law elastic|rigid]
+      [--scale S] [--strain E] [--steps N]
+Writes bench/results/chains-<YYYYmmdd-HHMM>.json.
+"""
+from __future__ import annotations
+
+import argparse
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
+
+import numpy as np  # noqa: E402
+
+import record  # noqa: E402
+from engine import Scene, io  # noqa: E402
+from engine import laws  # noqa: E402
+from engine.experiments import cylinder_triaxial, slope_deposit  # noqa: E402
+
+
+def one(name, a, out_dir, chain_solve, hot_sweeps):
+    compile_ = Scene.compile
+
+    def with_chains(self, *a, **kw):
+        kw["chain_solve"] = chain_solve
+        return compile_(self, *a, **kw)
+
+    Scene.compile = with_chains
+    try:
+        h = str(Path(out_dir) / f"{name}.h5")
+        t0 = time.perf_counter()
+        law = laws.RigidWire() if a.law == "rigid" else laws.ElasticWire(stiffness=1.0)
+        if a.test == "cylinder":
+            res = cylinder_triaxial(a.scale, axial_strain=a.strain, history=h, frames=0,
+                                    hot_sweeps=hot_sweeps, wire_law=law, progress=False)
+        else:
+            res = slope_deposit(a.scale, steps=a.steps, history=h, frames=0, wire_law=law,
+                                hot_sweeps=hot_sweeps, progress=False, max_nonconverged=1.0)
+        wall = time.perf_counter() - t0
+    finally:
+        Scene.compile = compile_
+    rec = io.read_history(h, frames=False)
+    its = np.asarray(rec.iterations)
+    conv = res.convergence
+    out = dict(name=name, chain_solve=chain_solve, hot_sweeps=hot_sweeps, wall_s=wall,
+               recorded_steps=int(its.size), sweeps_mean=float(its.mean()),
+               sweeps_median=float(np.median(its)), sweeps_max=int(its.max()),
+               steps=int(conv["steps"]), not_converged=int(conv["non_converged"]))
+    if a.test == "cylinder":
+        out.update(q_end_Pa=float(res.deviator[-1]),
+                   wire_equivalent_end_Pa=float(res.wire_equivalent[-1]))
+        out["answer"] = (f"q end {out['q_end_Pa'] / 1e3:.2f} kPa, wire eq. "
+                         f"{out['wire_equivalent_end_Pa']:.1f} Pa")
+    else:
+        out.update(max_slope_deg=float(res.max_slope_deg))
+        out["answer"] = f"max slope {out['max_slope_deg']:.1f} deg"
+    return out
+
+
+def main(argv=None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap.add_argument("--test", choices=("cylinder", "slope"), default="cylinder")
+    ap.add_argument("--law", choices=("elastic", "rigid"), default="elastic")
+    ap.add_argument("--scale", type=float, default=None,
+                    help="sample scale (default 0.1 cylinder, 0.05 slope)")
+    ap.add_argument("--strain", type=float, default=0.05, help="cylinder: axial strain")
+    ap.add_argument("--steps", type=int, default=2000, help="slope: steps")
+    a = ap.parse_args(argv)
+    if a.scale is None:
+        a.scale = 0.1 if a.test == "cylinder" else 0.05
+    busy = record.Busy()
+    runs = {}
+    with tempfile.TemporaryDirectory() as d:
+        cylinder_triaxial(0.04, axial_strain=0.002, iso_max_steps=20, ramp_steps=10,
+                          history=str(Path(d) / "warm.h5"), frames=0, progress=False)  # JIT
+        for name, cs, hot in (("plain_hot2", False, 2), ("plain_hot0", False, 0),
+                              ("chains_hot0", True, 0)):
+            r = runs[name] = one(name, a, d, cs, hot)
+            print(f"{name:12s} {r['wall_s']:6.1f} s, {r['steps']} steps, sweeps/recorded step "
+                  f"mean {r['sweeps_mean']:.1f} (median {r['sweeps_median']:.0f}, max "
+                  f"{r['sweeps_max']}), {r['not_converged']} at max_iter; {r['answer']}",
+                  flush=True)
+    p, c = runs["plain_hot0"], runs["chains_hot0"]
+    out = dict(benchmark="chains", test=a.test, law=a.law, scale=a.scale,
+               axial_strain=a.strain if a.test == "cylinder" else None,
+               steps=a.steps if a.test == "slope" else None, seed=0,
+               machine=record.machine(), git=record.git_commit(), runs=runs,
+               ratios=dict(sweeps_plain_hot0_over_chains=p["sweeps_mean"] / c["sweeps_mean"],
+                           wall_plain_hot0_over_chains=p["wall_s"] / c["wall_s"],
+                           wall_plain_hot2_over_chains=runs["plain_hot2"]["wall_s"] / c["wall_s"]),
+               busy=busy.finish())
+    print("ratios (plain / chains): " + ", ".join(f"{k} {v:.2f}" for k, v in out["ratios"].items()))
+    print(f"busy: {out['busy'].get('note', out['busy'])}")
+    print(f"wrote {record.write(f'chains-{a.test}-{a.law}', out)}")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -224,12 +224,10 @@ def _n_frames(path) -> int:
 
 
 def render_frame(history, out, *, frame=-1, preset="beads", camera="iso", **options) -> Path:
-    """Frame ``frame`` of ``history`` (a history or a checkpoint) drawn with ``preset`` to
-    the PNG ``out`` (:func:`workbench.frames.render_frames` for several)."""
-    from .frames import render_frames
+    """:func:`workbench.frames.render_frame`, where it lives now (kept here by name)."""
+    from .frames import render_frame as draw
 
-    return render_frames(history, out, frames=frame, preset=preset, camera=camera,
-                         progress=False, **options)[0]
+    return draw(history, out, frame=frame, preset=preset, camera=camera, **options)
 
 
 def figures_of(result, out: Path) -> list[Path]:

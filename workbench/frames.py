@@ -28,8 +28,8 @@ from pathlib import Path
 
 import numpy as np
 
-__all__ = ["parse_frames", "common_clim", "render_frames", "write_movie", "MOVIE_SUFFIXES",
-           "frame_cylinder", "frame_title"]
+__all__ = ["parse_frames", "common_clim", "render_frames", "render_frame", "write_movie",
+           "MOVIE_SUFFIXES", "frame_cylinder", "frame_title"]
 
 MOVIE_SUFFIXES = (".mp4", ".gif")
 
@@ -284,6 +284,13 @@ def render_frames(history, out, *, frames=-1, preset: str = "beads", camera="iso
                               window_size=size,
                               **_frame_options(run, model, state, preset, opts)))
     return paths
+
+
+def render_frame(history, out, *, frame=-1, preset="beads", camera="iso", **options) -> Path:
+    """Frame ``frame`` of ``history`` (a history or a checkpoint) drawn with ``preset`` to
+    the PNG ``out`` (:func:`render_frames` for several)."""
+    return render_frames(history, out, frames=frame, preset=preset, camera=camera,
+                         progress=False, **options)[0]
 
 
 def write_movie(history, path, *, frames="all", preset: str = "beads", camera="iso",

@@ -1145,7 +1145,7 @@ def _empty(path, text):
 def snapshots(runs_dir: Path, fig_dir: Path, runs=None) -> tuple[dict, list]:
     """PyVista pictures of the last frames (Fig. 8-9, 11, 13); ({key: path}, problems).
     ``runs``: the names of the report's runs (None: all); the others are not drawn."""
-    from .cli import render_frame
+    from .frames import render_frame
 
     # Fig. 7: the wire's beads drawn too, so the slack wire of the geometric sample (no
     # tension yet) shows its shape as the relaxed one does
@@ -1179,7 +1179,7 @@ def snapshots(runs_dir: Path, fig_dir: Path, runs=None) -> tuple[dict, list]:
 
 def series(runs_dir: Path, series_dir: Path, runs=None) -> tuple[dict, list]:
     """ParaView series (VTU + PVD) of four runs (those of them in ``runs``, when given)."""
-    from .cli import export_series
+    from .series import export_history as export_series
 
     out, problems = {}, []
     for run in ("deposit_w400_seed0", "slope_w400_seed0", "box_rw1_seed0", "cylinder_k1_seed0"):

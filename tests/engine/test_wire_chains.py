@@ -104,21 +104,21 @@ def test_a_long_chain_needs_a_few_sweeps_per_step(law):
     assert its.max() <= 20, its
 
 
-def test_a_falling_wire_still_takes_fewer_sweeps():
-    """A 1 000-bead rigid wire starting as a looser arc (chord 0.87 x length, measured: a
-    third of its links taut): its links go slack and taut within a step, where the
-    wires' active set and L* can chase each other; after 30 chain sweeps a step goes on
-    with the plain link sweep.  Measured over 30 steps: 19 034 sweeps in all with the
-    chain solve (28 steps of 1-16, two of 8 919 and 10 014) against 71 083 plain; the
-    test asks for fewer than half."""
+def test_a_falling_wire_takes_a_few_sweeps_per_step():
+    """A 1 000-bead rigid wire starting as a looser arc (chord 0.87 x its length), whose
+    links go slack and taut as it falls.  Its slack links' impulses come out of the chain
+    solve at round-off (1e-33 N s), and the Quad residual of such impulses, noise over
+    noise, stayed of order 1 for thousands of sweeps until round-off impulses were set to
+    0 (two steps of 8 919 and 10 014 sweeps then).  Measured over 30 steps: 58 sweeps in
+    all (1 or 2 a step) against 71 083 with the plain link sweeps (up to 8 625 a step)."""
     n, a = 1000, 2.2e-4
     phi = np.linspace(-1.0, 1.0, n) * 0.9
     R = (n - 1) * a / 1.8
     pts = np.column_stack([R * np.sin(phi), np.zeros(n), R * (np.cos(phi) - 1.0)])
     pts *= a / np.linalg.norm(np.diff(pts, axis=0), axis=1).mean()
     chain, plain = (_long_chain(pts, laws.RigidWire(), cs) for cs in (True, False))
-    assert chain.sum() < 0.5 * plain.sum(), (chain.sum(), plain.sum())
-    assert np.median(chain) <= 5
+    assert chain.max() <= 20, chain
+    assert chain.sum() < 0.01 * plain.sum(), (chain.sum(), plain.sum())
 
 
 def test_chain_solve_refuses_the_variants_it_does_not_run_with():

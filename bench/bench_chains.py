@@ -1,19 +1,19 @@
 """Each wire solved as one chain (``Options.chain_solve``) on a real test, run three ways,
-one after the other in this process, on one NLGS thread: the demo's TexSol cylinder
+one after the other in this process, on one NLGS thread (four ways): the demo's TexSol cylinder
 triaxial test (``--test cylinder``, the default: ``nscd demo``'s scale 0.1, 5 % axial
 strain, seed 0, ElasticWire k = 1 N) or the slope deposit (``--test slope``: scale 0.05,
 2 000 steps, ``--law rigid`` for the rigid wire of issue 31's probe):
 
 * ``plain_hot2``: the tests' default solver (plain link sweeps, ``hot_sweeps=2``);
-* ``plain_hot0``: plain link sweeps, ``hot_sweeps=0`` (the chain solve's peer: it does not
-  combine with the hot re-sweeps yet);
-* ``chains_hot0``: ``chain_solve=True``, ``hot_sweeps=0``.
+* ``plain_hot0``: plain link sweeps, ``hot_sweeps=0`` (``chains_hot0``'s peer);
+* ``chains_hot0``: ``chain_solve=True``, ``hot_sweeps=0``;
+* ``chains_hot2``: ``chain_solve=True`` with the default ``hot_sweeps=2``.
 
 For each: wall time, recorded steps, mean NLGS sweeps per recorded step, steps at
 max_iter, and the answer (cylinder: the final deviator q and wire equivalent stress; slope:
 the maximum slope); the same seed, so the three answers differ by the solver's path
 within its tolerance, not by the seed spread.  The tests have no
-``chain_solve`` keyword yet: ``Scene.compile`` is wrapped for the chain run.
+``chain_solve`` keyword yet: ``Scene.compile`` is wrapped for the chain runs.
 
 Run:  .venv/bin/python bench/bench_chains.py [--test cylinder|slope] [--law elastic|rigid]
       [--scale S] [--strain E] [--steps N]
@@ -94,20 +94,22 @@ def main(argv=None) -> int:
         cylinder_triaxial(0.04, axial_strain=0.002, iso_max_steps=20, ramp_steps=10,
                           history=str(Path(d) / "warm.h5"), frames=0, progress=False)  # JIT
         for name, cs, hot in (("plain_hot2", False, 2), ("plain_hot0", False, 0),
-                              ("chains_hot0", True, 0)):
+                              ("chains_hot0", True, 0), ("chains_hot2", True, 2)):
             r = runs[name] = one(name, a, d, cs, hot)
             print(f"{name:12s} {r['wall_s']:6.1f} s, {r['steps']} steps, sweeps/recorded step "
                   f"mean {r['sweeps_mean']:.1f} (median {r['sweeps_median']:.0f}, max "
                   f"{r['sweeps_max']}), {r['not_converged']} at max_iter; {r['answer']}",
                   flush=True)
     p, c = runs["plain_hot0"], runs["chains_hot0"]
+    p2, c2 = runs["plain_hot2"], runs["chains_hot2"]
     out = dict(benchmark="chains", test=a.test, law=a.law, scale=a.scale,
                axial_strain=a.strain if a.test == "cylinder" else None,
                steps=a.steps if a.test == "slope" else None, seed=0,
                machine=record.machine(), git=record.git_commit(), runs=runs,
-               ratios=dict(sweeps_plain_hot0_over_chains=p["sweeps_mean"] / c["sweeps_mean"],
-                           wall_plain_hot0_over_chains=p["wall_s"] / c["wall_s"],
-                           wall_plain_hot2_over_chains=runs["plain_hot2"]["wall_s"] / c["wall_s"]),
+               ratios=dict(sweeps_plain_hot0_over_chains_hot0=p["sweeps_mean"] / c["sweeps_mean"],
+                           wall_plain_hot0_over_chains_hot0=p["wall_s"] / c["wall_s"],
+                           sweeps_plain_hot2_over_chains_hot2=p2["sweeps_mean"] / c2["sweeps_mean"],
+                           wall_plain_hot2_over_chains_hot2=p2["wall_s"] / c2["wall_s"]),
                busy=busy.finish())
     print("ratios (plain / chains): " + ", ".join(f"{k} {v:.2f}" for k, v in out["ratios"].items()))
     print(f"busy: {out['busy'].get('note', out['busy'])}")

@@ -27,7 +27,9 @@ link flipped a pass, which ends for a positive definite matrix; after 4 m passes
 the solve projects its last answer on λ >= 0 and the NLGS loop goes on.  Impulses whose
 (W + c) λ is round-off against the chain's velocities are set to 0: a falling slack wire's
 came out at 1e-33 N s, and the Quad residual of such impulses (noise over noise) kept
-two of its steps at 9 000-10 000 sweeps.  Broken links
+two of its steps at 9 000-10 000 sweeps.  A singular system (a straight rigid chain
+between two immobile beads, whose tension is undetermined: a pivot below 1e-12 of its
+diagonal) gets the plain Gauss–Seidel pass on its links instead, as the link sweep does.  Broken links
 and rigid links between two immobile beads (``wl[l, 1] == 0``) stay at 0 and split the
 chain.  Relaxation ω applies to the chain's answer as to a link's: λ ← λ₀ + ω (λ* − λ₀),
 then λ >= 0 for the wires.
@@ -45,8 +47,11 @@ import numpy as np
 from numba import njit
 
 from ..model import DYN_INV_MASS
-from .nlgs import _apply_link, link_sweep, sweep
+from .nlgs import _apply_link, _contact, _full, hot_list, link_sweep, link_update, sweep
 
+
+#: A pivot below this fraction of its diagonal is singular (:func:`_thomas`).
+SINGULAR = 1e-12
 
 #: A link impulse whose (W + c) λ is below this fraction of the chain's largest right side
 #: (a velocity) is round-off: it is set to 0.
@@ -107,7 +112,8 @@ def _thomas(a, b, d, e, rhs, act, corner_row, corner_val, out, cp, dp):
     """Solve rows a..b-1 of the tridiagonal system (diagonal d, off-diagonal e[l] between
     l and l+1, right side rhs), rows with ``act != 1`` replaced by λ = 0 (and their
     couplings dropped); ``corner_row`` >= 0 adds ``corner_val`` to that row's right side
-    (the Sherman–Morrison vectors).  Writes ``out``."""
+    (the Sherman–Morrison vectors).  Writes ``out``; returns False on a singular pivot (a
+    straight rigid chain between two immobile ends: its tension is undetermined)."""
     prev = 0.0                                  # effective coupling to the row before
     for l in range(a, b):
         if act[l] == 1:
@@ -120,17 +126,16 @@ def _thomas(a, b, d, e, rhs, act, corner_row, corner_val, out, cp, dp):
             nxt = 0.0
         if l == corner_row:
             rr += corner_val
-        if l > a:
-            den = dd - prev * cp[l - 1]
-            cp[l] = nxt / den
-            dp[l] = (rr - prev * dp[l - 1]) / den
-        else:
-            cp[l] = nxt / dd
-            dp[l] = rr / dd
+        den = dd - prev * cp[l - 1] if l > a else dd
+        if not abs(den) > SINGULAR * dd:
+            return False
+        cp[l] = nxt / den
+        dp[l] = (rr - prev * dp[l - 1]) / den if l > a else rr / den
         prev = nxt
     out[b - 1] = dp[b - 1]
     for l in range(b - 2, a - 1, -1):
         out[l] = dp[l] - cp[l] * out[l + 1]
+    return True
 
 
 @njit(cache=True, inline="always")
@@ -139,26 +144,29 @@ def _solve_chain(a, b, cyc, d, e, rhs, act, lam, z, cp, dp):
     rows at 0.  The cyclic one couples rows b-1 and a by ``e[b - 1]``."""
     ec = e[b - 1] if (cyc and act[a] == 1 and act[b - 1] == 1) else 0.0
     if ec == 0.0:
-        _thomas(a, b, d, e, rhs, act, -1, 0.0, lam, cp, dp)
-        return
+        return _thomas(a, b, d, e, rhs, act, -1, 0.0, lam, cp, dp)
     # Sherman–Morrison: M = T' + u vᵀ, u = (γ, 0.., ec), v = (1, 0.., ec/γ), T' the open
     # tridiagonal with d_a − γ and d_{b-1} − ec²/γ
     gam = -d[a]
     da, dl = d[a], d[b - 1]
     d[a] = da - gam
     d[b - 1] = dl - ec * ec / gam
-    _thomas(a, b, d, e, rhs, act, -1, 0.0, lam, cp, dp)          # T' y = rhs
-    # T' z = u: the same matrix, right side u (rhs set to 0 through a second pass)
+    ok = _thomas(a, b, d, e, rhs, act, -1, 0.0, lam, cp, dp)     # T' y = rhs
+    # T' z = u: the same matrix, right side u
     for l in range(a, b):
         z[l] = 0.0
-    _thomas_rhs_u(a, b, d, e, act, gam, ec, z, cp, dp)
+    if ok:
+        ok = _thomas_rhs_u(a, b, d, e, act, gam, ec, z, cp, dp)
     d[a] = da
     d[b - 1] = dl
+    if not ok or not abs(1.0 + z[a] + ec * z[b - 1] / gam) > SINGULAR:
+        return False
     vy = lam[a] + ec * lam[b - 1] / gam
     vz = z[a] + ec * z[b - 1] / gam
     f = vy / (1.0 + vz)
     for l in range(a, b):
         lam[l] -= f * z[l]
+    return True
 
 
 @njit(cache=True, inline="always")
@@ -173,17 +181,16 @@ def _thomas_rhs_u(a, b, d, e, act, gam, ec, out, cp, dp):
             dd = 1.0
             nxt = 0.0
         rr = gam if l == a else (ec if l == b - 1 else 0.0)
-        if l > a:
-            den = dd - prev * cp[l - 1]
-            cp[l] = nxt / den
-            dp[l] = (rr - prev * dp[l - 1]) / den
-        else:
-            cp[l] = nxt / dd
-            dp[l] = rr / dd
+        den = dd - prev * cp[l - 1] if l > a else dd
+        if not abs(den) > SINGULAR * abs(dd):
+            return False
+        cp[l] = nxt / den
+        dp[l] = (rr - prev * dp[l - 1]) / den if l > a else rr / den
         prev = nxt
     out[b - 1] = dp[b - 1]
     for l in range(b - 2, a - 1, -1):
         out[l] = dp[l] - cp[l] * out[l + 1]
+    return True
 
 
 @njit(cache=True, inline="always")
@@ -301,13 +308,16 @@ def chain_sweep(nc, starts, closed, link_i, link_j, normal, wl, unilateral, impu
         # link's L* at the velocities of its own update)
         for l in range(a, b):
             lp[l] = 0.0
+        singular = False
         for rnd in range(LSTAR_ROUNDS):
             # the wires' complementarity: block principal pivoting on the active set (every
             # violated link flipped at once), then, if that has not settled, Murty's least-
             # index rule (one link a pass: finite for this positive definite matrix)
             m = b - a
             for p in range(BLOCK_PASSES + MURTY_PASSES_PER_LINK * m):
-                _solve_chain(a, b, cyc, d, e, rhs, act, lam, z, cp, dp)
+                if not _solve_chain(a, b, cyc, d, e, rhs, act, lam, z, cp, dp):
+                    singular = True
+                    break
                 single = p >= BLOCK_PASSES
                 changed = 0
                 for l in range(a, b):
@@ -332,6 +342,8 @@ def chain_sweep(nc, starts, closed, link_i, link_j, normal, wl, unilateral, impu
                             break
                 if changed == 0:
                     break
+            if singular:
+                break
             top = 0.0
             moved = 0.0
             for l in range(a, b):
@@ -346,6 +358,13 @@ def chain_sweep(nc, starts, closed, link_i, link_j, normal, wl, unilateral, impu
             if rnd + 1 < LSTAR_ROUNDS:
                 _length_terms(a, b, cyc, link_i, link_j, normal, wl, impulse, body_dyn, vel6,
                               act, lam, uf, rhs)
+        if singular:          # an undetermined tension: the plain Gauss–Seidel pass on it
+            for l in range(a, b):
+                x, y = link_update(l, link_i, link_j, normal, wl, unilateral, impulse,
+                                   body_dyn, vel6, relax)
+                num += x
+                den += y
+            continue
         # the chain's velocity scale: a link whose (W + c) λ is round-off against it carries no
         # tension (a slack wire's impulses came out at 1e-33 N s, and the Quad residual of
         # such impulses, noise over noise, stayed of order 1 for thousands of sweeps)
@@ -408,6 +427,67 @@ def iterate_chains(n, n_pair, c_i, c_j, frame, w, gterm, mu, ri, rj, impulse, bo
         res = np.sqrt(num / den) / relax if den > 0.0 else 0.0
         if res < tol:
             return it + 1, res
+    return max_iter, res
+
+
+@njit(cache=True)
+def iterate_hot_chains(n, n_pair, c_i, c_j, frame, w, gterm, mu, ri, rj, impulse, body_dyn,
+                       vel6, relax, tol, max_iter, link_i, link_j, l_normal, wl, l_unilateral,
+                       l_impulse, l_order, done, hot_sweeps, factor, q, hot, nc, starts, closed,
+                       d, e, rhs, lam, act, z, cp, dp, uf, lp):
+    """:func:`iterate_chains` with the hot contacts re-swept after each full sweep, as
+    :func:`engine.solver.nlgs.iterate_hot` does (``Options.hot_sweeps``); the stopping test
+    stays on the full sweeps."""
+    if relax > 1.0:                       # the over-relaxed copy of the contact loops
+        return _hot_chains(n, n_pair, c_i, c_j, frame, w, gterm, mu, ri, rj, impulse,
+                           body_dyn, vel6, relax, tol, max_iter, link_i, link_j, l_normal, wl,
+                           l_unilateral, l_impulse, l_order, done, hot_sweeps, factor, q, hot,
+                           nc, starts, closed, d, e, rhs, lam, act, z, cp, dp, uf, lp, True)
+    return _hot_chains(n, n_pair, c_i, c_j, frame, w, gterm, mu, ri, rj, impulse, body_dyn,
+                       vel6, relax, tol, max_iter, link_i, link_j, l_normal, wl, l_unilateral,
+                       l_impulse, l_order, done, hot_sweeps, factor, q, hot, nc, starts, closed,
+                       d, e, rhs, lam, act, z, cp, dp, uf, lp, False)
+
+
+@njit(cache=True)
+def _hot_chains(n, n_pair, c_i, c_j, frame, w, gterm, mu, ri, rj, impulse, body_dyn, vel6,
+                relax, tol, max_iter, link_i, link_j, l_normal, wl, l_unilateral, l_impulse,
+                l_order, done, hot_sweeps, factor, q, hot, nc, starts, closed, d, e, rhs, lam,
+                act, z, cp, dp, uf, lp, over):
+    """:func:`iterate_hot_chains`' loop (``over``: over-relaxation, relax > 1)."""
+    if n == 0 and nc == 0:
+        return 0, 0.0
+    bounds = np.full(1, n_pair, np.int64)
+    hbounds = np.empty(1, np.int64)
+    nl = link_i.shape[0]
+    res = 0.0
+    for it in range(max_iter):
+        num, den = _full(n, n_pair, q, c_i, c_j, frame, w, gterm, mu, ri, rj, impulse,
+                         body_dyn, vel6, relax, over, True)
+        if nc > 0:
+            if done + it < CHAIN_SWEEPS:
+                lnum, lden = chain_sweep(nc, starts, closed, link_i, link_j, l_normal, wl,
+                                         l_unilateral, l_impulse, body_dyn, vel6, relax, d, e,
+                                         rhs, lam, act, z, cp, dp, uf, lp)
+            else:
+                lnum, lden = link_sweep(nl, link_i, link_j, l_normal, wl, l_unilateral,
+                                        l_impulse, body_dyn, vel6, relax, l_order)
+            num += lnum
+            den += lden
+        res = np.sqrt(num / den) / relax if den > 0.0 else 0.0
+        if res < tol:
+            return it + 1, res
+        if n == 0:
+            continue
+        m = hot_list(n, q, factor, hot, bounds, hbounds)
+        m_pair = hbounds[0]
+        for _ in range(hot_sweeps):
+            for k in range(m_pair):
+                _contact(hot[k], c_i, c_j, frame, w, gterm, mu, ri, rj, impulse, body_dyn,
+                         vel6, relax, False, False, over)
+            for k in range(m_pair, m):
+                _contact(hot[k], c_i, c_j, frame, w, gterm, mu, ri, rj, impulse, body_dyn,
+                         vel6, relax, True, False, over)
     return max_iter, res
 
 

@@ -333,6 +333,42 @@ def link_prepare(nl, link_i, link_j, ref_len, stiffness, broken, pos, body_dyn, 
             _apply_link(i, j, impulse[l], nx, ny, nz, body_dyn, vel6)
 
 
+@njit(cache=True, inline="always")
+def link_update(l, link_i, link_j, normal, wl, unilateral, impulse, body_dyn, vel6, relax):
+    """The Gauss–Seidel update of link ``l`` (see :func:`link_sweep`); returns its Quad
+    terms ((W Δλ)², (W λ)²), (0, 0) for a skipped link."""
+    iwc = wl[l, 1]
+    if iwc == 0.0:  # skipped link (see link_prepare)
+        return 0.0, 0.0
+    W = wl[l, 0]
+    i = link_i[l]
+    j = link_j[l]
+    nx = normal[l, 0]
+    ny = normal[l, 1]
+    nz = normal[l, 2]
+    wx = vel6[i, 0] - vel6[j, 0]
+    wy = vel6[i, 1] - vel6[j, 1]
+    wz = vel6[i, 2] - vel6[j, 2]
+    u = nx * wx + ny * wy + nz * wz
+    # L*² = L² − h²‖w_⊥‖², saturated at 0.99 L² (the link turns by up to ~6° per step):
+    # continuous, and bounded where the step is too coarse (see link_sweep's docstring)
+    L2 = wl[l, 3]
+    ls2 = L2 - (wx * wx + wy * wy + wz * wz - u * u) * wl[l, 4]
+    ls = np.sqrt(ls2 if ls2 > 0.99 * L2 else 0.99 * L2)
+    lam0 = impulse[l]
+    lam = (u + W * lam0 + (wl[l, 2] - ls) * wl[l, 5]) * iwc
+    # projected relaxation: λ0 + ω (λ_GS − λ0), then λ >= 0 for the wires (at ω = 1
+    # the added term is exactly 0: the plain update)
+    lam += (relax - 1.0) * (lam - lam0)
+    if unilateral[l] != 0 and lam < 0.0:
+        lam = 0.0
+    dl = lam - lam0
+    lam = lam0 + dl
+    impulse[l] = lam
+    _apply_link(i, j, dl, nx, ny, nz, body_dyn, vel6)
+    return (W * dl) ** 2, (W * lam) ** 2
+
+
 @njit(cache=True)
 def link_sweep(nl, link_i, link_j, normal, wl, unilateral, impulse, body_dyn, vel6, relax, order):
     """One Gauss–Seidel sweep over the wire links; returns (Σ(W Δλ)², Σ(W λ)²).
@@ -369,38 +405,10 @@ def link_sweep(nl, link_i, link_j, normal, wl, unilateral, impulse, body_dyn, ve
     num = 0.0
     den = 0.0
     for m in range(nl):
-        l = order[m]
-        iwc = wl[l, 1]
-        if iwc == 0.0:  # skipped link (see link_prepare)
-            continue
-        W = wl[l, 0]
-        i = link_i[l]
-        j = link_j[l]
-        nx = normal[l, 0]
-        ny = normal[l, 1]
-        nz = normal[l, 2]
-        wx = vel6[i, 0] - vel6[j, 0]
-        wy = vel6[i, 1] - vel6[j, 1]
-        wz = vel6[i, 2] - vel6[j, 2]
-        u = nx * wx + ny * wy + nz * wz
-        # L*² = L² − h²‖w_⊥‖², saturated at 0.99 L² (the link turns by up to ~6° per step):
-        # continuous, and bounded where the step is too coarse (see the docstring)
-        L2 = wl[l, 3]
-        ls2 = L2 - (wx * wx + wy * wy + wz * wz - u * u) * wl[l, 4]
-        ls = np.sqrt(ls2 if ls2 > 0.99 * L2 else 0.99 * L2)
-        lam0 = impulse[l]
-        lam = (u + W * lam0 + (wl[l, 2] - ls) * wl[l, 5]) * iwc
-        # projected relaxation: λ0 + ω (λ_GS − λ0), then λ >= 0 for the wires (at ω = 1
-        # the added term is exactly 0: the plain update)
-        lam += (relax - 1.0) * (lam - lam0)
-        if unilateral[l] != 0 and lam < 0.0:
-            lam = 0.0
-        dl = lam - lam0
-        lam = lam0 + dl
-        impulse[l] = lam
-        _apply_link(i, j, dl, nx, ny, nz, body_dyn, vel6)
-        num += (W * dl) ** 2
-        den += (W * lam) ** 2
+        x, y = link_update(order[m], link_i, link_j, normal, wl, unilateral, impulse,
+                           body_dyn, vel6, relax)
+        num += x
+        den += y
     return num, den
 
 
@@ -700,9 +708,16 @@ def _solve_on(model, state, ci, cj, body_dyn, vel6, pos, link_i, link_j, threads
                      state.link_broken, pos, body_dyn, vel6,
                      state.link_impulse, state.link_normal, state.link_gap, wl, o.dt)
     if o.chain_solve and nl and threads == 1:   # (Options refuses the other variants)
-        from .chains import chain_workspace, iterate_chains
+        from .chains import chain_workspace, iterate_chains, iterate_hot_chains
 
         cw = chain_workspace(nl, link_i, link_j)
+        if o.hot_sweeps > 0:
+            q, hot = np.empty(n), np.empty(n, np.int32)
+            return in_chunks(lambda done, m: iterate_hot_chains(
+                n, c.n_pair, ci, cj, c.frame, c.w, c.gterm, c.mu, c.ri, c.rj, c.impulse,
+                body_dyn, vel6, o.relax, o.tol, m, link_i, link_j, state.link_normal, wl,
+                model.link_unilateral, state.link_impulse, model.link_order, done,
+                o.hot_sweeps, HOT_FACTOR, q, hot, *cw), o.max_iter, o.tol, n + nl)
         return in_chunks(lambda done, m: iterate_chains(
             n, c.n_pair, ci, cj, c.frame, c.w, c.gterm, c.mu, c.ri, c.rj, c.impulse, body_dyn,
             vel6, o.relax, o.tol, m, link_i, link_j, state.link_normal, wl,

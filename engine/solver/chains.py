@@ -47,7 +47,7 @@ import numpy as np
 from numba import njit
 
 from ..model import DYN_INV_MASS
-from .nlgs import _apply_link, _contact, _full, hot_list, link_sweep, link_update, sweep
+from .nlgs import _apply_link, _full, link_sweep, link_update, lstar, resweep_hot, sweep
 
 
 #: A pivot below this fraction of its diagonal is singular (:func:`_thomas`).
@@ -108,12 +108,12 @@ def _coupling(l, l2, link_i, link_j, normal, body_dyn):
 
 
 @njit(cache=True, inline="always")
-def _thomas(a, b, d, e, rhs, act, corner_row, corner_val, out, cp, dp):
+def _thomas(a, b, d, e, rhs, act, out, cp, dp):
     """Solve rows a..b-1 of the tridiagonal system (diagonal d, off-diagonal e[l] between
     l and l+1, right side rhs), rows with ``act != 1`` replaced by λ = 0 (and their
-    couplings dropped); ``corner_row`` >= 0 adds ``corner_val`` to that row's right side
-    (the Sherman–Morrison vectors).  Writes ``out``; returns False on a singular pivot (a
-    straight rigid chain between two immobile ends: its tension is undetermined)."""
+    couplings dropped).  Writes ``out`` (which may be ``rhs`` itself: the forward pass
+    reads every row before the backward pass writes); returns False on a singular pivot
+    (a straight rigid chain between two immobile ends: its tension is undetermined)."""
     prev = 0.0                                  # effective coupling to the row before
     for l in range(a, b):
         if act[l] == 1:
@@ -124,8 +124,6 @@ def _thomas(a, b, d, e, rhs, act, corner_row, corner_val, out, cp, dp):
             dd = 1.0
             rr = 0.0
             nxt = 0.0
-        if l == corner_row:
-            rr += corner_val
         den = dd - prev * cp[l - 1] if l > a else dd
         if not abs(den) > SINGULAR * dd:
             return False
@@ -144,19 +142,21 @@ def _solve_chain(a, b, cyc, d, e, rhs, act, lam, z, cp, dp):
     rows at 0.  The cyclic one couples rows b-1 and a by ``e[b - 1]``."""
     ec = e[b - 1] if (cyc and act[a] == 1 and act[b - 1] == 1) else 0.0
     if ec == 0.0:
-        return _thomas(a, b, d, e, rhs, act, -1, 0.0, lam, cp, dp)
+        return _thomas(a, b, d, e, rhs, act, lam, cp, dp)
     # Sherman–Morrison: M = T' + u vᵀ, u = (γ, 0.., ec), v = (1, 0.., ec/γ), T' the open
     # tridiagonal with d_a − γ and d_{b-1} − ec²/γ
     gam = -d[a]
     da, dl = d[a], d[b - 1]
     d[a] = da - gam
     d[b - 1] = dl - ec * ec / gam
-    ok = _thomas(a, b, d, e, rhs, act, -1, 0.0, lam, cp, dp)     # T' y = rhs
-    # T' z = u: the same matrix, right side u
+    ok = _thomas(a, b, d, e, rhs, act, lam, cp, dp)              # T' y = rhs
+    # T' z = u: the same matrix, right side u = (γ, 0.., ec), solved in place in z
     for l in range(a, b):
         z[l] = 0.0
+    z[a] = gam
+    z[b - 1] = ec
     if ok:
-        ok = _thomas_rhs_u(a, b, d, e, act, gam, ec, z, cp, dp)
+        ok = _thomas(a, b, d, e, z, act, z, cp, dp)
     d[a] = da
     d[b - 1] = dl
     if not ok or not abs(1.0 + z[a] + ec * z[b - 1] / gam) > SINGULAR:
@@ -166,30 +166,6 @@ def _solve_chain(a, b, cyc, d, e, rhs, act, lam, z, cp, dp):
     f = vy / (1.0 + vz)
     for l in range(a, b):
         lam[l] -= f * z[l]
-    return True
-
-
-@njit(cache=True, inline="always")
-def _thomas_rhs_u(a, b, d, e, act, gam, ec, out, cp, dp):
-    """Thomas' algorithm on the same rows as :func:`_thomas`, right side (γ, 0.., ec)."""
-    prev = 0.0
-    for l in range(a, b):
-        if act[l] == 1:
-            dd = d[l]
-            nxt = e[l] if (l + 1 < b and act[l + 1] == 1) else 0.0
-        else:
-            dd = 1.0
-            nxt = 0.0
-        rr = gam if l == a else (ec if l == b - 1 else 0.0)
-        den = dd - prev * cp[l - 1] if l > a else dd
-        if not abs(den) > SINGULAR * abs(dd):
-            return False
-        cp[l] = nxt / den
-        dp[l] = (rr - prev * dp[l - 1]) / den if l > a else rr / den
-        prev = nxt
-    out[b - 1] = dp[b - 1]
-    for l in range(b - 2, a - 1, -1):
-        out[l] = dp[l] - cp[l] * out[l + 1]
     return True
 
 
@@ -239,10 +215,7 @@ def _length_terms(a, b, cyc, link_i, link_j, normal, wl, impulse, body_dyn, vel6
             wx += f * normal[k, 0]
             wy += f * normal[k, 1]
             wz += f * normal[k, 2]
-        u = normal[l, 0] * wx + normal[l, 1] * wy + normal[l, 2] * wz
-        L2 = wl[l, 3]
-        ls2 = L2 - (wx * wx + wy * wy + wz * wz - u * u) * wl[l, 4]
-        ls = np.sqrt(ls2 if ls2 > 0.99 * L2 else 0.99 * L2)
+        ls = lstar(l, normal, wl, wx, wy, wz)[1]
         rhs[l] = uf[l] + (wl[l, 2] - ls) * wl[l, 5]
 
 
@@ -267,16 +240,8 @@ def chain_sweep(nc, starts, closed, link_i, link_j, normal, wl, unilateral, impu
                 continue
             i = link_i[l]
             j = link_j[l]
-            nx = normal[l, 0]
-            ny = normal[l, 1]
-            nz = normal[l, 2]
-            wx = vel6[i, 0] - vel6[j, 0]
-            wy = vel6[i, 1] - vel6[j, 1]
-            wz = vel6[i, 2] - vel6[j, 2]
-            u = nx * wx + ny * wy + nz * wz
-            L2 = wl[l, 3]
-            ls2 = L2 - (wx * wx + wy * wy + wz * wz - u * u) * wl[l, 4]
-            ls = np.sqrt(ls2 if ls2 > 0.99 * L2 else 0.99 * L2)
+            u, ls = lstar(l, normal, wl, vel6[i, 0] - vel6[j, 0], vel6[i, 1] - vel6[j, 1],
+                          vel6[i, 2] - vel6[j, 2])
             d[l] = 1.0 / iwc
             uf[l] = u + wl[l, 0] * impulse[l]
             rhs[l] = (wl[l, 2] - ls) * wl[l, 5]
@@ -398,6 +363,19 @@ def chain_sweep(nc, starts, closed, link_i, link_j, normal, wl, unilateral, impu
 CHAIN_SWEEPS = 30
 
 
+@njit(cache=True, inline="always")
+def _links(sweeps, nc, starts, closed, link_i, link_j, l_normal, wl, l_unilateral, l_impulse,
+           body_dyn, vel6, relax, l_order, d, e, rhs, lam, act, z, cp, dp, uf, lp):
+    """The links' part of a sweep: the chain solve for the step's first
+    :data:`CHAIN_SWEEPS` sweeps, the plain link sweep after them; returns its Quad sums."""
+    if sweeps < CHAIN_SWEEPS:
+        return chain_sweep(nc, starts, closed, link_i, link_j, l_normal, wl, l_unilateral,
+                           l_impulse, body_dyn, vel6, relax, d, e, rhs, lam, act, z, cp, dp,
+                           uf, lp)
+    return link_sweep(link_i.shape[0], link_i, link_j, l_normal, wl, l_unilateral, l_impulse,
+                      body_dyn, vel6, relax, l_order)
+
+
 @njit(cache=True)
 def iterate_chains(n, n_pair, c_i, c_j, frame, w, gterm, mu, ri, rj, impulse, body_dyn, vel6,
                    relax, tol, max_iter, link_i, link_j, l_normal, wl, l_unilateral, l_impulse,
@@ -410,18 +388,13 @@ def iterate_chains(n, n_pair, c_i, c_j, frame, w, gterm, mu, ri, rj, impulse, bo
     if n == 0 and nc == 0:
         return 0, 0.0
     res = 0.0
-    nl = link_i.shape[0]
     for it in range(max_iter):
         num, den = sweep(n, n_pair, c_i, c_j, frame, w, gterm, mu, ri, rj, impulse, body_dyn,
                          vel6, relax)
         if nc > 0:
-            if done + it < CHAIN_SWEEPS:
-                lnum, lden = chain_sweep(nc, starts, closed, link_i, link_j, l_normal, wl,
-                                         l_unilateral, l_impulse, body_dyn, vel6, relax, d, e,
-                                         rhs, lam, act, z, cp, dp, uf, lp)
-            else:
-                lnum, lden = link_sweep(nl, link_i, link_j, l_normal, wl, l_unilateral,
-                                        l_impulse, body_dyn, vel6, relax, l_order)
+            lnum, lden = _links(done + it, nc, starts, closed, link_i, link_j, l_normal, wl,
+                                l_unilateral, l_impulse, body_dyn, vel6, relax, l_order, d, e,
+                                rhs, lam, act, z, cp, dp, uf, lp)
             num += lnum
             den += lden
         res = np.sqrt(num / den) / relax if den > 0.0 else 0.0
@@ -465,13 +438,9 @@ def _hot_chains(n, n_pair, c_i, c_j, frame, w, gterm, mu, ri, rj, impulse, body_
         num, den = _full(n, n_pair, q, c_i, c_j, frame, w, gterm, mu, ri, rj, impulse,
                          body_dyn, vel6, relax, over, True)
         if nc > 0:
-            if done + it < CHAIN_SWEEPS:
-                lnum, lden = chain_sweep(nc, starts, closed, link_i, link_j, l_normal, wl,
-                                         l_unilateral, l_impulse, body_dyn, vel6, relax, d, e,
-                                         rhs, lam, act, z, cp, dp, uf, lp)
-            else:
-                lnum, lden = link_sweep(nl, link_i, link_j, l_normal, wl, l_unilateral,
-                                        l_impulse, body_dyn, vel6, relax, l_order)
+            lnum, lden = _links(done + it, nc, starts, closed, link_i, link_j, l_normal, wl,
+                                l_unilateral, l_impulse, body_dyn, vel6, relax, l_order, d, e,
+                                rhs, lam, act, z, cp, dp, uf, lp)
             num += lnum
             den += lden
         res = np.sqrt(num / den) / relax if den > 0.0 else 0.0
@@ -479,15 +448,8 @@ def _hot_chains(n, n_pair, c_i, c_j, frame, w, gterm, mu, ri, rj, impulse, body_
             return it + 1, res
         if n == 0:
             continue
-        m = hot_list(n, q, factor, hot, bounds, hbounds)
-        m_pair = hbounds[0]
-        for _ in range(hot_sweeps):
-            for k in range(m_pair):
-                _contact(hot[k], c_i, c_j, frame, w, gterm, mu, ri, rj, impulse, body_dyn,
-                         vel6, relax, False, False, over)
-            for k in range(m_pair, m):
-                _contact(hot[k], c_i, c_j, frame, w, gterm, mu, ri, rj, impulse, body_dyn,
-                         vel6, relax, True, False, over)
+        resweep_hot(n, q, factor, hot, bounds, hbounds, hot_sweeps, c_i, c_j, frame, w, gterm,
+                    mu, ri, rj, impulse, body_dyn, vel6, relax, over)
     return max_iter, res
 
 

@@ -334,6 +334,18 @@ def link_prepare(nl, link_i, link_j, ref_len, stiffness, broken, pos, body_dyn, 
 
 
 @njit(cache=True, inline="always")
+def lstar(l, normal, wl, wx, wy, wz):
+    """(u, L*) of link ``l`` at the relative velocity w = v_i − v_j: its normal velocity
+    and the length that keeps its next predicted length exact, L*² = L² − h²‖w_⊥‖²,
+    saturated at 0.99 L² (the link turns by up to ~6° per step: continuous, and bounded
+    where the step is too coarse; see :func:`link_sweep`)."""
+    u = normal[l, 0] * wx + normal[l, 1] * wy + normal[l, 2] * wz
+    L2 = wl[l, 3]
+    ls2 = L2 - (wx * wx + wy * wy + wz * wz - u * u) * wl[l, 4]
+    return u, np.sqrt(ls2 if ls2 > 0.99 * L2 else 0.99 * L2)
+
+
+@njit(cache=True, inline="always")
 def link_update(l, link_i, link_j, normal, wl, unilateral, impulse, body_dyn, vel6, relax):
     """The Gauss–Seidel update of link ``l`` (see :func:`link_sweep`); returns its Quad
     terms ((W Δλ)², (W λ)²), (0, 0) for a skipped link."""
@@ -346,15 +358,8 @@ def link_update(l, link_i, link_j, normal, wl, unilateral, impulse, body_dyn, ve
     nx = normal[l, 0]
     ny = normal[l, 1]
     nz = normal[l, 2]
-    wx = vel6[i, 0] - vel6[j, 0]
-    wy = vel6[i, 1] - vel6[j, 1]
-    wz = vel6[i, 2] - vel6[j, 2]
-    u = nx * wx + ny * wy + nz * wz
-    # L*² = L² − h²‖w_⊥‖², saturated at 0.99 L² (the link turns by up to ~6° per step):
-    # continuous, and bounded where the step is too coarse (see link_sweep's docstring)
-    L2 = wl[l, 3]
-    ls2 = L2 - (wx * wx + wy * wy + wz * wz - u * u) * wl[l, 4]
-    ls = np.sqrt(ls2 if ls2 > 0.99 * L2 else 0.99 * L2)
+    u, ls = lstar(l, normal, wl, vel6[i, 0] - vel6[j, 0], vel6[i, 1] - vel6[j, 1],
+                  vel6[i, 2] - vel6[j, 2])
     lam0 = impulse[l]
     lam = (u + W * lam0 + (wl[l, 2] - ls) * wl[l, 5]) * iwc
     # projected relaxation: λ0 + ω (λ_GS − λ0), then λ >= 0 for the wires (at ω = 1
@@ -507,16 +512,25 @@ def _iterate_hot(n, n_pair, c_i, c_j, frame, w, gterm, mu, ri, rj, impulse, body
             return it + 1, res
         if n == 0:
             continue
-        m = hot_list(n, q, factor, hot, bounds, hbounds)
-        m_pair = hbounds[0]  # hot sphere–sphere contacts come first (hot is in buffer order)
-        for _ in range(hot_sweeps):
-            for k in range(m_pair):
-                _contact(hot[k], c_i, c_j, frame, w, gterm, mu, ri, rj, impulse, body_dyn,
-                         vel6, relax, False, False, over)
-            for k in range(m_pair, m):
-                _contact(hot[k], c_i, c_j, frame, w, gterm, mu, ri, rj, impulse, body_dyn,
-                         vel6, relax, True, False, over)
+        resweep_hot(n, q, factor, hot, bounds, hbounds, hot_sweeps, c_i, c_j, frame, w, gterm,
+                    mu, ri, rj, impulse, body_dyn, vel6, relax, over)
     return max_iter, res
+
+
+@njit(cache=True, inline="always")
+def resweep_hot(n, q, factor, hot, bounds, hbounds, hot_sweeps, c_i, c_j, frame, w, gterm, mu,
+                ri, rj, impulse, body_dyn, vel6, relax, over):
+    """Sweep the hot contacts of the last full sweep (:func:`hot_list` on its ``q``)
+    ``hot_sweeps`` times (``over``: a constant at each call site, see :func:`_contact`)."""
+    m = hot_list(n, q, factor, hot, bounds, hbounds)
+    m_pair = hbounds[0]  # hot sphere–sphere contacts come first (hot is in buffer order)
+    for _ in range(hot_sweeps):
+        for k in range(m_pair):
+            _contact(hot[k], c_i, c_j, frame, w, gterm, mu, ri, rj, impulse, body_dyn,
+                     vel6, relax, False, False, over)
+        for k in range(m_pair, m):
+            _contact(hot[k], c_i, c_j, frame, w, gterm, mu, ri, rj, impulse, body_dyn,
+                     vel6, relax, True, False, over)
 
 
 @njit(cache=True)

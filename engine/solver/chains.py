@@ -17,8 +17,10 @@ change of variables of Eq. 8, :func:`engine.solver.nlgs.link_sweep`) is then
     wires (Eq. 13, 15): λ >= 0, (A + C) λ − b >= 0, λ·((A + C) λ − b) = 0,
 
 C = diag(L/(k h²)) the compliance of the elastic laws (0 for the rigid ones) and L* the
-length that keeps the next predicted length exact (computed from the velocities at the
-start of the chain's solve, as the sweep computes it at each link's update).  The matrix
+length that keeps the next predicted length exact: it depends on the velocities the solve
+changes, so the chain is solved, L* taken at the velocities of that answer, and solved
+again, until the impulses stop changing (a few rounds; the sweep takes each link's L* at
+the velocities of its own update).  The matrix
 is tridiagonal (an open wire: Thomas' algorithm) or cyclic tridiagonal (a closed wire:
 Sherman–Morrison on top of Thomas); the wires' complementarity is solved by block
 principal pivoting on the active set (the links in tension), which ends in a few passes
@@ -29,10 +31,11 @@ the solve projects its last answer on λ >= 0 and the NLGS loop goes on.  Impuls
 came out at 1e-33 N s, and the Quad residual of such impulses (noise over noise) kept
 two of its steps at 9 000-10 000 sweeps.  A singular system (a straight rigid chain
 between two immobile beads, whose tension is undetermined: a pivot below 1e-12 of its
-diagonal) gets the plain Gauss–Seidel pass on its links instead, as the link sweep does.  Broken links
-and rigid links between two immobile beads (``wl[l, 1] == 0``) stay at 0 and split the
-chain.  Relaxation ω applies to the chain's answer as to a link's: λ ← λ₀ + ω (λ* − λ₀),
-then λ >= 0 for the wires.
+diagonal) gets the plain Gauss–Seidel pass on its links instead, as the link sweep does.
+Broken links and rigid links between two immobile beads (``wl[l, 1] == 0``) stay at 0
+and split the chain.  After :data:`CHAIN_SWEEPS` sweeps in a step the links go back to
+the plain link sweep (a safeguard).  Relaxation ω applies to the chain's answer as to
+a link's: λ ← λ₀ + ω (λ* − λ₀), then λ >= 0 for the wires.
 
 At its fixed point the chain solve and the link sweep satisfy the same equations, so the
 converged impulses are the same (tested at tol 1e-10); the residual is the same Quad norm
@@ -223,7 +226,8 @@ def _length_terms(a, b, cyc, link_i, link_j, normal, wl, impulse, body_dyn, vel6
 def chain_sweep(nc, starts, closed, link_i, link_j, normal, wl, unilateral, impulse, body_dyn,
                 vel6, relax, d, e, rhs, lam, act, z, cp, dp, uf, lp):
     """Solve every chain exactly given the other impulses (module doc) and apply the
-    change to the beads; returns (Σ(W Δλ)², Σ(W λ)²) as :func:`~engine.solver.nlgs.link_sweep`."""
+    change to the beads; returns (Σ(W Δλ)², Σ(W λ)²) as
+    :func:`~engine.solver.nlgs.link_sweep` does."""
     num = 0.0
     den = 0.0
     for c in range(nc):

@@ -342,7 +342,7 @@ def _write_vtu(path: Path, part, xml: bytes, compression) -> None:
 def history_fields(history) -> tuple[np.ndarray, dict]:
     """(the step of each record, ``{name: (n_records, ...) array}``): what
     :func:`export_history` writes as field data for the frame recorded at a step (see the
-    module doc); ``({}, {})``-like empty arrays for a checkpoint."""
+    module doc); no steps and no fields for a checkpoint (it has no records)."""
     from engine import io
     from engine.analysis import loading_curves
 

@@ -222,7 +222,7 @@ if shot:
 
 def write_state_script(pvd_path, path=None, *, ranges: dict | None = None,
                        sizes: dict | None = None, parts=("beads", "contacts"),
-                       fields=("step", "time", "group_names")) -> Path:
+                       fields=("step", "time")) -> Path:
     """Write the ParaView script of the series ``pvd_path`` (default
     ``<its folder>/open_in_paraview.py``) and return its path.
 
@@ -232,14 +232,14 @@ def write_state_script(pvd_path, path=None, *, ranges: dict | None = None,
     ``fields``: the names of the frames' field data."""
     pvd = Path(pvd_path).resolve()
     out = Path(path) if path is not None else pvd.parent / SCRIPT_NAME
-    rng = {f"{k[0]}/{k[1]}": [float(v[0]), float(v[1])] for k, v in (ranges or {}).items()}
+    rng = {(str(k[0]), str(k[1])): [float(v[0]), float(v[1])] for k, v in (ranges or {}).items()}
     text = (_TEMPLATE
             .replace("__PVD_REPR__", repr(pvd.name))
             .replace("__DIR_REPR__", repr(str(pvd.parent)))
             .replace("__PVD__", pvd.name)
             .replace("__PARTS__", repr(list(parts)))
             .replace("__FIELDS__", repr(sorted(fields)))
-            .replace("__RANGES__", "{tuple(k.split('/')): v for k, v in " + json.dumps(rng) + ".items()}")
+            .replace("__RANGES__", repr(rng))
             .replace("__SIZES__", json.dumps({k: float(v) for k, v in (sizes or {}).items()})))
     tmp = out.with_suffix(".py.tmp")
     tmp.write_text(text, encoding="utf-8")

@@ -72,6 +72,10 @@ from . import meshes
 __all__ = ["SeriesWriter", "sphere_mesh", "contact_mesh", "wire_mesh", "wall_mesh", "read_pvd",
            "PARTS", "export_history", "frame_fields", "history_fields"]
 
+#: The cell arrays of each part whose range over the series the state script's colour
+#: limits take (:mod:`workbench.paraview_state`).
+SCRIPT_RANGES = {"wire": ("tension",), "contacts": ("normal_force",)}
+
 #: PVD part number of each kind of file.
 PARTS = {"beads": 0, "contacts": 1, "wire": 2, "walls": 3}
 _NAMES = {v: k for k, v in PARTS.items()}
@@ -152,7 +156,8 @@ class SeriesWriter:
         self.state_script = bool(state_script)
         self.frames = 0
         self._entries: list[tuple[float, int, str]] = []  # (time [s], part, file)
-        #: {(part, array): [min, max]} over the frames written (the state script's limits)
+        #: {(part, array): [min, max]} over the frames written of the arrays the state
+        #: script colours by (:data:`SCRIPT_RANGES`: its colour limits)
         self.ranges: dict[tuple[str, str], list[float]] = {}
         self._sizes: dict[str, float] = {}   # typical sizes [m] for the state script
         self._fields: set[str] = set()       # field data names written
@@ -213,18 +218,14 @@ class SeriesWriter:
         self._write_pvd()
 
     def _track(self, key, part) -> None:
-        for kind, data in (("point", part.point_data), ("cell", part.cell_data)):
-            for name, a in data.items():
-                a = np.asarray(a)
-                if a.size == 0 or a.dtype.kind not in "fiub":
-                    continue
-                v = np.linalg.norm(a, axis=1) if a.ndim == 2 else a
-                v = v[np.isfinite(v)]
-                if not v.size:
-                    continue
-                lo, hi = float(v.min()), float(v.max())
-                r = self.ranges.setdefault((key, name), [lo, hi])
-                r[0], r[1] = min(r[0], lo), max(r[1], hi)
+        for name in SCRIPT_RANGES.get(key, ()):
+            v = np.asarray(part.cell_data[name], float)
+            v = v[np.isfinite(v)]
+            if not v.size:
+                continue
+            lo, hi = float(v.min()), float(v.max())
+            r = self.ranges.setdefault((key, name), [lo, hi])
+            r[0], r[1] = min(r[0], lo), max(r[1], hi)
 
     def flush(self) -> None:
         """Rewrite the PVD collection (it is already rewritten after every frame) and the

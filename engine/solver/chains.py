@@ -50,7 +50,7 @@ import numpy as np
 from numba import njit
 
 from ..model import DYN_INV_MASS
-from .nlgs import _apply_link, _full, link_sweep, link_update, lstar, resweep_hot, sweep
+from .nlgs import _apply_link, _full, link_sweep, link_update, lstar, resweep_hot
 
 
 #: A pivot below this fraction of its diagonal is singular (:func:`_thomas`).
@@ -383,60 +383,38 @@ def _links(sweeps, nc, starts, closed, link_i, link_j, l_normal, wl, l_unilatera
 @njit(cache=True)
 def iterate_chains(n, n_pair, c_i, c_j, frame, w, gterm, mu, ri, rj, impulse, body_dyn, vel6,
                    relax, tol, max_iter, link_i, link_j, l_normal, wl, l_unilateral, l_impulse,
-                   l_order, done, nc, starts, closed, d, e, rhs, lam, act, z, cp, dp, uf, lp):
+                   l_order, done, hot_sweeps, factor, q, hot, nc, starts, closed, d, e, rhs,
+                   lam, act, z, cp, dp, uf, lp):
     """Sweep the contacts, then solve each chain (:func:`chain_sweep`), until the Quad
     residual (over both) is below ``tol`` or ``max_iter`` sweeps are done; after
     :data:`CHAIN_SWEEPS` sweeps of the step (``done`` counts those of earlier calls), the
-    links are swept by the plain :func:`~engine.solver.nlgs.link_sweep` instead, which
-    converges where the chain solve does not settle.  Returns ``(iterations, residual)``."""
-    if n == 0 and nc == 0:
-        return 0, 0.0
-    res = 0.0
-    for it in range(max_iter):
-        num, den = sweep(n, n_pair, c_i, c_j, frame, w, gterm, mu, ri, rj, impulse, body_dyn,
-                         vel6, relax)
-        if nc > 0:
-            lnum, lden = _links(done + it, nc, starts, closed, link_i, link_j, l_normal, wl,
-                                l_unilateral, l_impulse, body_dyn, vel6, relax, l_order, d, e,
-                                rhs, lam, act, z, cp, dp, uf, lp)
-            num += lnum
-            den += lden
-        res = np.sqrt(num / den) / relax if den > 0.0 else 0.0
-        if res < tol:
-            return it + 1, res
-    return max_iter, res
-
-
-@njit(cache=True)
-def iterate_hot_chains(n, n_pair, c_i, c_j, frame, w, gterm, mu, ri, rj, impulse, body_dyn,
-                       vel6, relax, tol, max_iter, link_i, link_j, l_normal, wl, l_unilateral,
-                       l_impulse, l_order, done, hot_sweeps, factor, q, hot, nc, starts, closed,
-                       d, e, rhs, lam, act, z, cp, dp, uf, lp):
-    """:func:`iterate_chains` with the hot contacts re-swept after each full sweep, as
-    :func:`engine.solver.nlgs.iterate_hot` does (``Options.hot_sweeps``); the stopping test
-    stays on the full sweeps."""
+    links are swept by the plain :func:`~engine.solver.nlgs.link_sweep` instead.  With
+    ``hot_sweeps`` > 0 the hot contacts are re-swept after each full sweep, as
+    :func:`engine.solver.nlgs.iterate_hot` does (``q`` (n,), ``hot`` (n,) int32: work
+    arrays); the stopping test stays on the full sweeps.  Returns ``(iterations,
+    residual)``."""
     if relax > 1.0:                       # the over-relaxed copy of the contact loops
-        return _hot_chains(n, n_pair, c_i, c_j, frame, w, gterm, mu, ri, rj, impulse,
-                           body_dyn, vel6, relax, tol, max_iter, link_i, link_j, l_normal, wl,
-                           l_unilateral, l_impulse, l_order, done, hot_sweeps, factor, q, hot,
-                           nc, starts, closed, d, e, rhs, lam, act, z, cp, dp, uf, lp, True)
-    return _hot_chains(n, n_pair, c_i, c_j, frame, w, gterm, mu, ri, rj, impulse, body_dyn,
-                       vel6, relax, tol, max_iter, link_i, link_j, l_normal, wl, l_unilateral,
-                       l_impulse, l_order, done, hot_sweeps, factor, q, hot, nc, starts, closed,
-                       d, e, rhs, lam, act, z, cp, dp, uf, lp, False)
+        return _chains_loop(n, n_pair, c_i, c_j, frame, w, gterm, mu, ri, rj, impulse,
+                            body_dyn, vel6, relax, tol, max_iter, link_i, link_j, l_normal,
+                            wl, l_unilateral, l_impulse, l_order, done, hot_sweeps, factor, q,
+                            hot, nc, starts, closed, d, e, rhs, lam, act, z, cp, dp, uf, lp,
+                            True)
+    return _chains_loop(n, n_pair, c_i, c_j, frame, w, gterm, mu, ri, rj, impulse, body_dyn,
+                        vel6, relax, tol, max_iter, link_i, link_j, l_normal, wl, l_unilateral,
+                        l_impulse, l_order, done, hot_sweeps, factor, q, hot, nc, starts,
+                        closed, d, e, rhs, lam, act, z, cp, dp, uf, lp, False)
 
 
 @njit(cache=True)
-def _hot_chains(n, n_pair, c_i, c_j, frame, w, gterm, mu, ri, rj, impulse, body_dyn, vel6,
-                relax, tol, max_iter, link_i, link_j, l_normal, wl, l_unilateral, l_impulse,
-                l_order, done, hot_sweeps, factor, q, hot, nc, starts, closed, d, e, rhs, lam,
-                act, z, cp, dp, uf, lp, over):
-    """:func:`iterate_hot_chains`' loop (``over``: over-relaxation, relax > 1)."""
+def _chains_loop(n, n_pair, c_i, c_j, frame, w, gterm, mu, ri, rj, impulse, body_dyn, vel6,
+                 relax, tol, max_iter, link_i, link_j, l_normal, wl, l_unilateral, l_impulse,
+                 l_order, done, hot_sweeps, factor, q, hot, nc, starts, closed, d, e, rhs, lam,
+                 act, z, cp, dp, uf, lp, over):
+    """:func:`iterate_chains`' loop (``over``: over-relaxation, relax > 1)."""
     if n == 0 and nc == 0:
         return 0, 0.0
     bounds = np.full(1, n_pair, np.int64)
     hbounds = np.empty(1, np.int64)
-    nl = link_i.shape[0]
     res = 0.0
     for it in range(max_iter):
         num, den = _full(n, n_pair, q, c_i, c_j, frame, w, gterm, mu, ri, rj, impulse,
@@ -450,10 +428,9 @@ def _hot_chains(n, n_pair, c_i, c_j, frame, w, gterm, mu, ri, rj, impulse, body_
         res = np.sqrt(num / den) / relax if den > 0.0 else 0.0
         if res < tol:
             return it + 1, res
-        if n == 0:
-            continue
-        resweep_hot(n, q, factor, hot, bounds, hbounds, hot_sweeps, c_i, c_j, frame, w, gterm,
-                    mu, ri, rj, impulse, body_dyn, vel6, relax, over)
+        if n > 0 and hot_sweeps > 0:
+            resweep_hot(n, q, factor, hot, bounds, hbounds, hot_sweeps, c_i, c_j, frame, w,
+                        gterm, mu, ri, rj, impulse, body_dyn, vel6, relax, over)
     return max_iter, res
 
 

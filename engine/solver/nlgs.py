@@ -722,21 +722,15 @@ def _solve_on(model, state, ci, cj, body_dyn, vel6, pos, link_i, link_j, threads
                      state.link_broken, pos, body_dyn, vel6,
                      state.link_impulse, state.link_normal, state.link_gap, wl, o.dt)
     if o.chain_solve and nl and threads == 1:   # (Options refuses the other variants)
-        from .chains import chain_workspace, iterate_chains, iterate_hot_chains
+        from .chains import chain_workspace, iterate_chains
 
         cw = chain_workspace(nl, link_i, link_j)
-        if o.hot_sweeps > 0:
-            q, hot = np.empty(n), np.empty(n, np.int32)
-            return in_chunks(lambda done, m: iterate_hot_chains(
-                n, c.n_pair, ci, cj, c.frame, c.w, c.gterm, c.mu, c.ri, c.rj, c.impulse,
-                body_dyn, vel6, o.relax, o.tol, m, link_i, link_j, state.link_normal, wl,
-                model.link_unilateral, state.link_impulse, model.link_order, done,
-                o.hot_sweeps, HOT_FACTOR, q, hot, *cw), o.max_iter, o.tol, n + nl)
+        q, hot = np.empty(n), np.empty(n, np.int32)
         return in_chunks(lambda done, m: iterate_chains(
             n, c.n_pair, ci, cj, c.frame, c.w, c.gterm, c.mu, c.ri, c.rj, c.impulse, body_dyn,
             vel6, o.relax, o.tol, m, link_i, link_j, state.link_normal, wl,
-            model.link_unilateral, state.link_impulse, model.link_order, done, *cw),
-            o.max_iter, o.tol, n + nl)
+            model.link_unilateral, state.link_impulse, model.link_order, done, o.hot_sweeps,
+            HOT_FACTOR, q, hot, *cw), o.max_iter, o.tol, n + nl)
     ws = None
     if o.anderson > 0:
         from .anderson import Workspace, run_anderson

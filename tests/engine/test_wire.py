@@ -236,9 +236,9 @@ def test_brittle_wire_breaks_at_its_maximum_tension_and_not_before():
     assert state.links.tension[0] == 0.0 and state.position[b[1], 2] < z - 1e-6
 
 
-def test_wire_in_a_sand_pile_is_slack_then_pulled():
-    """A slack wire (ε₀ < 0) buried in a settling pile carries no tension; pulling one end
-    out (the other fixed) puts every link in tension."""
+def wire_in_a_sand_pile():
+    """80 grains in an open box above a 5-bead slack elastic wire (ε₀ = −0.3) lying on the
+    floor, its first bead fixed: (scene, beads), not compiled."""
     rng = np.random.default_rng(2)
     box = ((0, 0, 0), (12e-3, 12e-3, 0.1))
     pts, radii = lattice_pile(80, 1e-3, rng, box, gap=1.02)
@@ -253,6 +253,13 @@ def test_wire_in_a_sand_pile_is_slack_then_pulled():
                   ("wire", "wire")):
         s.interact(a, bb, laws.Coulomb(mu=0.3))
     s.fix([beads[0]])
+    return s, beads
+
+
+def test_wire_in_a_sand_pile_is_slack_then_pulled():
+    """A slack wire (ε₀ < 0) buried in a settling pile carries no tension; pulling one end
+    out (the other fixed) puts every link in tension."""
+    s, beads = wire_in_a_sand_pile()
     t_pull, dt = 0.12, 2e-4
     s.drive(beads[-1], velocity=lambda t: (0.05 if t > t_pull else 0.0, 0.0, 0.0))
     model, state = s.compile(dt=dt, tol=1e-6, max_iter=3000)

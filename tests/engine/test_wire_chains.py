@@ -153,25 +153,9 @@ def test_chain_solve_with_hot_sweeps_in_a_sand_pile():
     80 grains settling on an elastic wire whose far end is pulled out (the scene of
     test_wire's wire in a sand pile), 150 steps with and without the chain solve at tol
     1e-10: the same bead positions within 1e-9 m (both converge to the same equations)."""
-    from tests.helpers import lattice_pile
-
     out = []
     for cs in (False, True):
-        rng = np.random.default_rng(2)
-        box = ((0, 0, 0), (12e-3, 12e-3, 0.1))
-        pts, radii = lattice_pile(80, 1e-3, rng, box, gap=1.02)
-        pts[:, 2] += 1.5e-3
-        s = Scene(gravity=(0, 0, -9.81))
-        s.add_spheres(pts, radii, density=2650.0, group="sand")
-        wire_pts = np.column_stack([2e-3 + np.arange(5) * 2e-3, np.full(5, 6e-3),
-                                    np.full(5, 0.5e-3)])
-        beads = s.add_wire(wire_pts, radius=0.5e-3, density=1400.0, group="wire",
-                           law=laws.ElasticWire(stiffness=1.0, prestrain=-0.3))
-        s.add_box(*box, group="wall")
-        for a, bb in (("sand", "sand"), ("sand", "wall"), ("wire", "sand"), ("wire", "wall"),
-                      ("wire", "wire")):
-            s.interact(a, bb, laws.Coulomb(mu=0.3))
-        s.fix([beads[0]])
+        s, beads = _closed_forms.wire_in_a_sand_pile()
         s.drive(beads[-1], velocity=(0.02, 0.0, 0.0))
         model, state = s.compile(dt=2e-4, tol=1e-10, max_iter=20000, hot_sweeps=2,
                                  chain_solve=cs)

@@ -309,7 +309,10 @@ def _field_data_xml(fields: dict, compression) -> bytes:
     rows = []
     for name, v in fields.items():
         a = np.ravel(np.asarray(v))
-        if a.size == 0 or a.dtype.kind not in _VTU_TYPES:
+        if a.dtype.kind not in _VTU_TYPES:
+            raise ValueError(f"fields[{name!r}]: field data are numbers (a number or an array "
+                             f"of them), got {v!r}")
+        if a.size == 0:
             continue
         vt = _VTU_TYPES[a.dtype.kind]
         a = np.ascontiguousarray(a, "<f8" if vt == "Float64" else "<i8")

@@ -429,6 +429,14 @@ def test_small_window_keeps_the_bar_title_inside(scene, preset):
     assert (img[:, -4:] > 240).all(), "something is drawn in the last 4 columns"
 
 
+def test_nice_ticks_are_round_values_inside_the_range():
+    """Steps of 1, 2, 2.5 or 5 x 10^k, about n of them, none outside [lo, hi], no -0."""
+    np.testing.assert_array_equal(render.nice_ticks(0.0, 7.5, 5), [0.0, 2.0, 4.0, 6.0])
+    np.testing.assert_array_equal(render.nice_ticks(-1.4, 1.4, 5), [-1.0, 0.0, 1.0])
+    np.testing.assert_allclose(render.nice_ticks(0.0, 1e-3, 5), [0, 2.5e-4, 5e-4, 7.5e-4, 1e-3])
+    assert not np.signbit(render.nice_ticks(-1.4, 1.4, 5)[1])
+    np.testing.assert_array_equal(render.nice_ticks(3.0, 3.0), [3.0])      # no range
+
 def test_default_title_says_step_and_time(scene):
     model, state, _ = scene
     pl = render.plotter(model, state, "beads", window_size=SIZE)

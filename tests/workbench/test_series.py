@@ -192,6 +192,8 @@ def test_field_data_read_back_exactly(tmp_path, compression):
             {f"group:{g}": [i] for i, g in enumerate(model.group_names)}
         assert fd["stress"].tolist() == sigma.ravel().tolist()
         assert np.isnan(fd["axial_strain"]).all() and fd["stage"].tolist() == [1]
+    with pytest.raises(ValueError, match=r"fields\['label'\]: field data are numbers"):
+        w.write(model, state, fields={"label": "start"})
 
 
 def test_state_script_is_written_beside_the_pvd(tmp_path):

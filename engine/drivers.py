@@ -146,14 +146,23 @@ class Confinement:
         r_top = rad[top]
         w = r_top ** 2 / np.sum(r_top ** 2)
         R_surf = float(np.dot(w, rho[top]))
+        self._check_growth(R_surf, state)
+        area = 2 * np.pi * R_surf * (z1 - z0) * w
+        return self._load(state, top, theta, area, r_top, R_surf, z1 - z0)
+
+    def _check_growth(self, R, state) -> None:
         if self.start_radius is None:
-            self.start_radius = R_surf
-        elif self.max_growth is not None and not R_surf <= self.max_growth * self.start_radius:
+            self.start_radius = R
+        elif self.max_growth is not None and not R <= self.max_growth * self.start_radius:
             raise ConfinementError(
                 f"the confinement radius grew from {1e3 * self.start_radius:.3g} mm to "
-                f"{1e3 * R_surf:.3g} mm (more than max_growth = {self.max_growth:g} times; "
-                f"grains left the free-surface membrane) at step {state.step}")
-        area = 2 * np.pi * R_surf * (z1 - z0) * w
+                f"{1e3 * R:.3g} mm (more than max_growth = {self.max_growth:g} times; "
+                f"grains left the membrane) at step {state.step}")
+
+    def _load(self, state, top, theta, area, lever, R, height) -> float:
+        """Load particles ``top`` (indices into ``ids``) by p × ``area`` each along −e_r
+        (clearing the previous loads); ``lever`` [m]: the distance from each centre to the
+        membrane along e_r (the branch of its membrane "contact")."""
         f = self.pressure * area
         state.load[self.ids[self.surface]] = 0.0
         self.surface = top
@@ -161,9 +170,10 @@ class Confinement:
         state.load[self.ids[top]] = -f[:, None] * er
         self._force = f
         self._er = er
+        self._lever = np.asarray(lever, float)
         self.area = float(area.sum())
-        self.radius = R_surf                                   # outer envelope [m]
-        self.height = float(z1 - z0)
+        self.radius = float(R)                                 # outer envelope [m]
+        self.height = float(height)
         return self.area
 
     @staticmethod
@@ -178,7 +188,53 @@ class Confinement:
         whose branch goes from the particle centre to its outer edge, like a wall contact's."""
         if self.surface.size == 0:
             return np.zeros((3, 3))
-        r = model.body_radius[self.ids[self.surface]]
-        branch = -r[:, None] * self._er
+        branch = -self._lever[:, None] * self._er
         force = -self._force[:, None] * self._er
         return np.einsum("ka,kb->ab", branch, force)
+
+
+class LayerCrown(Confinement):
+    """The lateral confinement of LMGC90's public 3D membrane example, for comparison with
+    :class:`Confinement` (issue 30 §2): the sample is cut into horizontal layers ``layer``
+    [m] thick (default 2 × the largest radius); in each layer, of outer radius r_out (the
+    largest ‖x − axis‖ + r of its particles), the crown is the particles whose centre is
+    farther than r_out − 2 r_max from the axis (r_max the largest radius of the sample);
+    each crown particle gets a radial inward force proportional to its radius, the layer's
+    forces summing to p × 2π r_out t (t the layer's thickness).
+
+    :attr:`radius` is the thickness-weighted mean of the layers' r_out (so that the total
+    force is p × 2π R H); the membrane "contact" of a crown particle reaches from its centre
+    to r_out (:meth:`membrane_stress`).  Same parameters and errors as :class:`Confinement`
+    (``cell`` unused; ``layer`` instead).
+    """
+
+    def __init__(self, pressure: float, ids, *, center=(0.0, 0.0), layer: float | None = None,
+                 max_growth: float | None = 1.5):
+        super().__init__(pressure, ids, center=center, max_growth=max_growth)
+        if layer is not None:
+            t = float(layer)
+            if not (np.isfinite(t) and t > 0):
+                raise ValueError(f"layer must be a thickness > 0 [m] (or None), got {layer!r}")
+        self.layer = layer
+
+    def apply(self, model, state) -> float:
+        rho, theta, z0, z1 = self.geometry(model, state)
+        rad = model.body_radius[self.ids]
+        r_max = float(rad.max())
+        d = rho - rad                                   # centre distance from the axis
+        t = 2 * r_max if self.layer is None else float(self.layer)
+        n_lay = max(1, int(round((z1 - z0) / t)))
+        thick = (z1 - z0) / n_lay
+        z = state.position[self.ids, 2]
+        lay = np.clip(((z - z0) / thick).astype(np.int64), 0, n_lay - 1)
+        r_out = np.full(n_lay, -np.inf)
+        np.maximum.at(r_out, lay, rho)
+        crown = np.flatnonzero(d > r_out[lay] - 2 * r_max)
+        # each layer's forces sum to p 2π r_out t, shared in proportion to the radii
+        share = np.zeros(n_lay)
+        np.add.at(share, lay[crown], rad[crown])
+        occupied = np.isfinite(r_out)
+        R = float(np.sum(r_out[occupied]) * thick / (z1 - z0))
+        self._check_growth(R, state)
+        area = 2 * np.pi * r_out[lay[crown]] * thick * rad[crown] / share[lay[crown]]
+        return self._load(state, crown, theta, area, r_out[lay[crown]] - d[crown], R, z1 - z0)

@@ -128,7 +128,9 @@ class Scene:
         self._drives: dict[int, Drive] = {}
         self._drive_mass: dict[int, float] = {}
         # (i, j, law, position along its wire, whether i and j touch like two spheres)
-        self._links: list[tuple[int, int, object, int, bool]] = []
+        # (bead i, bead j, law, position along its wire, neighbour contact, reference
+        # length [m] or nan: g(0)/(1+ε₀))
+        self._links: list[tuple[int, int, object, int, bool, float]] = []
 
     # -- bodies ------------------------------------------------------------------------------
     def _group_index(self, group) -> int:
@@ -200,7 +202,8 @@ class Scene:
         return np.arange(first, first + n, dtype=np.int32)
 
     def add_wire(self, centers, radius, density, group: str = "wire", law=None,
-                 closed: bool = False, neighbour_contact: bool = False) -> np.ndarray:
+                 closed: bool = False, neighbour_contact: bool = False,
+                 reference_lengths=None) -> np.ndarray:
         """Add a wire: a chain of beads (spheres) linked i -> i+1 by a wire law (Eq. 7-15).
 
         Parameters
@@ -226,6 +229,11 @@ class Scene:
             law acts towards its reference length L, the contact only below 2 r_w; with
             L > 2 r_w (the samples': L = 2 r_w + gap) they never fight, and ``compile``
             refuses a link whose L is below 2 r_w (a prestrain too large).
+        reference_lengths : (n − 1,) or (n,) if closed [m], > 0, optional
+            The links' reference lengths L, in place of g(0)/(1+ε₀): a wire taken from a
+            saved state keeps its own (:mod:`engine.experiments.start`).  Its slack links
+            may then let neighbour beads overlap (without ``neighbour_contact``), which a
+            new wire may not.
 
         Returns
         -------
@@ -241,15 +249,21 @@ class Scene:
         r = _positive(radius, "radius", "[m]")
         nxt = np.roll(c, -1, axis=0) if closed else c[1:]
         d = np.linalg.norm(c[:len(nxt)] - nxt, axis=1)
+        ref = np.full(len(nxt), np.nan)
+        if reference_lengths is not None:
+            ref = _finite_array(reference_lengths, "reference_lengths", ())
+            if ref.shape != (len(nxt),) or not np.all(ref > 0):
+                raise ValueError(f"reference_lengths must be {len(nxt)} lengths > 0 [m] (one "
+                                 f"per link), got shape {ref.shape}")
         bad = np.flatnonzero(d < 2 * r * (1 - OVERLAP_TOLERANCE))
-        if bad.size:
+        if bad.size and (reference_lengths is None or neighbour_contact):
             raise ValueError(f"wire beads overlap their neighbour by more than "
                              f"{OVERLAP_TOLERANCE:.0%} of the radius (centre distance < "
                              f"{2 * r * (1 - OVERLAP_TOLERANCE):.6g} m) at links {bad[:10].tolist()}")
         ids = self.add_spheres(c, r, density, group=group)
         for k in range(len(nxt)):
             self._links.append((int(ids[k]), int(ids[(k + 1) % len(ids)]), law, k,
-                                bool(neighbour_contact)))
+                                bool(neighbour_contact), float(ref[k])))
         return ids
 
     def _add_wall(self, kind, point, axis, radius, height, caps, group) -> int:
@@ -457,12 +471,17 @@ class Scene:
         return names, pair_law, law_code, law_param, tuple(law_list)
 
     def _check_overlaps(self, pos, radius, kind, axis, height, caps, sphere_ids) -> None:
+        # linked beads that get no contact may overlap (a slack link of a saved state)
+        excluded = -np.ones(pos.shape[0], np.int32)
+        for lk in self._links:
+            if not lk[4]:
+                excluded[lk[0]] = lk[1]
         if sphere_ids.size >= 2:
             allpairs = np.zeros((1, 1), np.int16)
             grp = np.zeros(pos.shape[0], np.int16)
             out = np.zeros((4 * sphere_ids.size + 64, 2), np.int32)
             while True:
-                n = build_pairs(pos, radius, grp, allpairs, -np.ones(pos.shape[0], np.int32),
+                n = build_pairs(pos, radius, grp, allpairs, excluded,
                                 sphere_ids.astype(np.int32), 0.0, out)
                 if n <= out.shape[0]:
                     break
@@ -586,11 +605,13 @@ class Scene:
         lp = np.asarray([lk[2].params() for lk in self._links], float).reshape(-1, _laws.N_PARAM)
         link_pos = np.asarray([lk[3] for lk in self._links], np.int64)
         g0 = np.linalg.norm(pos[link_i] - pos[link_j], axis=1) if len(self._links) else np.zeros(0)
+        given = np.asarray([lk[5] for lk in self._links], float)
+        ref = np.where(np.isnan(given), g0 / (1.0 + lp[:, 1]), given) if len(self._links) \
+            else np.zeros(0)
         body_next = -np.ones(nb, np.int32)      # the linked pairs that get no contact
         apart = np.asarray([not lk[4] for lk in self._links], bool)
         if len(self._links) and not apart.all():
             # a link that pulls its beads closer than the contact lets them would fight it
-            ref = g0 / (1.0 + lp[:, 1])
             bad = np.flatnonzero(~apart & (ref < (radius[link_i] + radius[link_j])
                                            * (1 - 1e-9)))
             if bad.size:
@@ -619,7 +640,7 @@ class Scene:
             laws=law_objs, drives=tuple(self._drives[b] for b in sorted(self._drives)),
             link_i=link_i, link_j=link_j,
             link_law=np.asarray([lk[2].code for lk in self._links], np.int16),
-            link_ref_length=g0 / (1.0 + lp[:, 1]), link_stiffness=lp[:, 0].copy(),
+            link_ref_length=ref, link_stiffness=lp[:, 0].copy(),
             link_max_tension=lp[:, 2].copy(), link_unilateral=lp[:, 3].astype(np.int8),
             link_order=np.argsort(link_pos % 2, kind="stable").astype(np.int32),
             body_next=body_next, options=opts)

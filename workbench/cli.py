@@ -40,6 +40,10 @@ A TOML file for ``nscd run``::
     # max_tension = 0.5                # [N], "brittle" only (required there)
     neighbour_contact = false          # true: linked beads also touch (Scene.add_wire)
 
+With ``sample = "DEPOSIT.h5"`` in ``[parameters]`` (a history or checkpoint; the triaxial
+tests and slope_deposit) the test starts from that file's last state, its wire with the
+state's own law: leave ``[wire]`` out then.
+
 Unknown keys, wrong types and values out of range are reported together, each with its
 field and the allowed range; nothing runs then.
 """
@@ -158,6 +162,11 @@ def validate_config(raw: dict, path="run file") -> tuple[RunConfig, BaseModel]:
             params = _PARAMS[test](**raw.get("parameters", {}))
         except ValidationError as e:
             problems += _format_errors(e, _PARAMS[test], "parameters.")
+    if (params is not None and getattr(params, "sample", None) is not None
+            and isinstance(raw.get("wire"), dict) and raw["wire"].get("law", "elastic") != "none"):
+        problems.append("  wire: a [wire] law with parameters.sample: the start state's links "
+                        "keep their own law and reference lengths; leave [wire] out (or "
+                        "law = \"none\" for a state without a wire)")
     if problems:
         where = f" ({test})" if test in _PARAMS else ""
         raise ConfigError(f"{path}: {len(problems)} problem(s){where}\n" + "\n".join(problems))
@@ -201,6 +210,8 @@ def run_config(cfg: RunConfig, params: BaseModel, out: Path, progress=True):
     kw = params.model_dump(exclude_none=True)
     law = cfg.wire.wire_law()
     kw["wire"] = law is not None
+    if kw.get("sample") is not None and "wire" not in cfg.model_fields_set:
+        kw["wire"], law = True, None        # the start state's own wire, if it has one
     if law is not None:
         kw["wire_law"] = law
         kw["neighbour_contact"] = cfg.wire.neighbour_contact

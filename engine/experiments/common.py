@@ -309,6 +309,28 @@ def run_identity(arguments: dict) -> str:
                       sort_keys=True)
 
 
+def sample_identity(sample):
+    """What a checkpoint's identity holds of a test's ``sample`` argument: a name as it is,
+    a built sample (:class:`engine.prep.Sample`) as the SHA-256 of its particles."""
+    from ..prep.samples import Sample
+
+    if sample is None or isinstance(sample, str):
+        return sample
+    h = hashlib.sha256()
+    if isinstance(sample, Sample):
+        for a in (sample.sand_centers, sample.sand_radii, *sample.wire):
+            h.update(np.ascontiguousarray(a, dtype=float).tobytes())
+        h.update(repr((sample.name, sample.bead_radius, sample.container)).encode())
+        return f"{sample.name} sample {h.hexdigest()[:16]}"
+    if isinstance(sample, tuple) and len(sample) == 2 and hasattr(sample[1], "vel6"):
+        for a in (sample[1].position, sample[1].vel6, sample[0].body_radius,
+                  sample[0].link_ref_length):
+            h.update(np.ascontiguousarray(a, dtype=float).tobytes())
+        return f"state {h.hexdigest()[:16]}"
+    path = getattr(sample, "history", sample)
+    return os.fspath(path) if isinstance(path, (str, os.PathLike)) else repr(sample)
+
+
 @functools.cache
 def engine_code() -> str:
     """A fingerprint of the engine's code (12 hex digits of the SHA-256 of the paths and

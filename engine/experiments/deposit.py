@@ -11,10 +11,11 @@ import numpy as np
 from ..analysis import wall_forces
 from ..analysis.wire import wire_chains
 from ..prep import Box, Cylinder, paper_sample
+from ..prep.samples import Sample
 from ..prep.relax import kinetic_energy
 from ..scene import Scene
 from .params import check_args
-from .common import (RestCheckpoint, RestResult, check_bool, check_scale,
+from .common import (RestCheckpoint, RestResult, check_bool, check_scale, sample_identity,
                      deposit_laws, finish, rest_recording, run_meta, rest_summary, run_identity,
                      run_to_rest, solver_choice, wire_before_after, wire_law_or_default)
 
@@ -75,7 +76,7 @@ def _mould(sc, container, height):
         raise TypeError(f"no mould for a {type(container).__name__} container")
 
 
-def gravity_deposit(scale: float = 0.05, *, sample: str = "slope", wire: bool = True,
+def gravity_deposit(scale: float = 0.05, *, sample: str | Sample = "slope", wire: bool = True,
                     wire_density: float | None = None, wire_law=None, neighbour_contact: bool = False, steps: int = 6000,
                     ke_fraction: float = 1e-4, dt: float = 1e-4, theta: float = 0.5,
                     tol: float = 1e-4, max_iter: int = 1000, relax: float = 1.0,
@@ -93,7 +94,10 @@ def gravity_deposit(scale: float = 0.05, *, sample: str = "slope", wire: bool = 
 
     ``sample`` is one of :data:`SAMPLES`, built by :func:`engine.prep.paper_sample` at
     ``scale`` (1: the paper's size; the slope sample, Ø12 mm × 14 mm with 26 000 grains
-    and 400 km·m⁻³ of wire, by default; ``wire_density`` [m/m³] for another content).  It
+    and 400 km·m⁻³ of wire, by default; ``wire_density`` [m/m³] for another content), or a
+    geometric sample already built (an :class:`engine.prep.Sample`: ``scale``, ``seed`` and
+    ``wire_density`` then do not build it; ``wire=False`` is refused with a sample that has
+    a wire).  It
     stays in its mould (the container's floor and side, with friction ``mu_wall`` for sand
     and wire; open at the top) and runs under gravity, each step the
     θ-method (Eq. 4) with NLGS on the contacts and the wire links (Eq. 5-15), until the
@@ -110,8 +114,20 @@ def gravity_deposit(scale: float = 0.05, *, sample: str = "slope", wire: bool = 
     one left by the same call (a run killed or stopped), bit for bit as if it had never
     stopped, and starts afresh, with a warning, from a checkpoint of other parameters.
     """
-    check_args("gravity_deposit", locals())
-    identity = run_identity(dict(locals(), test="gravity_deposit"))
+    identity = run_identity(dict(locals(), sample=sample_identity(sample),
+                                 test="gravity_deposit"))
+    given = isinstance(sample, Sample)
+    args = dict(locals())
+    if given:
+        if wire_density is not None:
+            raise ValueError("gravity_deposit: wire_density builds the deposit's own sample; "
+                             "with a Sample given, build the sample with it")
+        if not wire and sample.wire:
+            raise ValueError(f"gravity_deposit: wire = False but the sample has a wire of "
+                             f"{sample.n_beads} beads; give a sample built with wire=False")
+        args["sample"] = sample.name if sample.name in SAMPLES else "slope"  # (checked below)
+        wire = bool(sample.wire)
+    check_args("gravity_deposit", args)
     scale = check_scale(scale)
     anderson, hot_sweeps = solver_choice(anderson, hot_sweeps)
     ckpt = RestCheckpoint(history, checkpoint_every, record_every, identity)
@@ -120,7 +136,10 @@ def gravity_deposit(scale: float = 0.05, *, sample: str = "slope", wire: bool = 
     if wire_density is not None:
         kw["wire_density"] = wire_density
     law = wire_law_or_default(wire_law) if wire else None
-    smp = paper_sample(sample, scale, **kw)
+    smp = sample if given else paper_sample(sample, scale, **kw)
+    if not isinstance(smp.container, (Box, Cylinder)):
+        raise ValueError(f"gravity_deposit: the sample's container is a "
+                         f"{type(smp.container).__name__}; the mould is a Box or a Cylinder")
     sc = Scene(gravity=(0.0, 0.0, -G))
     sand, beads = smp.add_to(sc, wire_law=law, neighbour_contact=neighbour_contact) if wire else (smp.add_to(sc)[0], [])
     ids = np.concatenate([sand, *beads]) if beads else np.asarray(sand)
@@ -143,7 +162,8 @@ def gravity_deposit(scale: float = 0.05, *, sample: str = "slope", wire: bool = 
                                        checkpoint=ckpt, resumed=resumed,
                                        meta=run_meta(
                                            "gravity_deposit", steps, scale=scale, seed=seed,
-                                           sample=sample, wire=wire, wire_density=wire_density,
+                                           sample=smp.name, wire=wire,
+                                           wire_density=smp.wire_density,
                                            wire_law=law, neighbour_contact=neighbour_contact,
                                            dt=dt, theta=theta, tol=tol, max_iter=max_iter,
                                            mu=mu, mu_wall=mu_wall, mu_wire=mu_wire, steps=steps,
@@ -171,7 +191,7 @@ def gravity_deposit(scale: float = 0.05, *, sample: str = "slope", wire: bool = 
         settlement=float(np.mean(z0 - state.position[sand, 2])), wall_force=-fz,
         slack_share=float(np.mean(state.links.tension <= 0.0)) if model.n_links else math.nan,
         weight=weight, at_rest=at_rest, history=hist.path,
-        params=dict(scale=scale, sample=sample, wire=wire, wire_density=smp.wire_density,
+        params=dict(scale=None if given else scale, sample=smp.name, wire=wire, wire_density=smp.wire_density,
                     wire_law=repr(law), neighbour_contact=bool(wire and neighbour_contact), steps=steps, ke_fraction=ke_fraction, dt=dt,
                     theta=theta, tol=tol, max_iter=max_iter, relax=relax, anderson=anderson,
                     threads=threads, hot_sweeps=hot_sweeps, mu=mu, mu_wall=mu_wall,

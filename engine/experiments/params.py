@@ -63,7 +63,13 @@ class SolverParams(Strict):
     _hot_alone = model_validator(mode="after")(lambda self: no_solver_conflict(self))
 
 
+SAMPLE_HELP = ("a history or checkpoint file whose last state the test starts from "
+               "(None: the test builds its sample; in Python also an engine.prep.Sample or "
+               "a (model, state) pair)")
+
+
 class TriaxialParams(SolverParams):
+    sample: Optional[str] = Field(None, description=SAMPLE_HELP)
     pressure: float = Field(15e3, gt=0, le=1e9, description="[Pa]")
     axial_strain: float = Field(0.05, gt=0, le=0.5)
     strain_rate: Optional[float] = Field(None, gt=0, le=1e3, description="[1/s]")
@@ -75,6 +81,17 @@ class TriaxialParams(SolverParams):
                                        "within this fraction of the pressure ...")
     iso_hold: int = Field(5, ge=1, le=STEP_LIMIT, description="... for this many checks in a row")
     ramp_steps: int = Field(400, ge=0, le=STEP_LIMIT, description="steps over which the pressure is raised")
+    preparation: Literal["geometric", "paper"] = Field(
+        "geometric", description="geometric: the sample as built; paper: relaxed under "
+                                 "gravity in its mould first (§2.4), then confined")
+    wire_density: Optional[float] = Field(None, gt=0, le=1e8,
+                                          description="[m/m³] (None: the paper's)")
+    wire_mode: Literal["isotropic", "orthotropic"] = Field(
+        "isotropic", description="the wire's walk: Eq. 16, or Eq. 17 in horizontal layers")
+    wire_prestrain: float = Field(0.0, ge=0, le=1, description=(
+        "ε₀ set on every link at the start of the loading: L = g/(1+ε₀)"))
+    deposit_steps: int = Field(6000, ge=1, le=STEP_LIMIT,
+                               description="most steps of the paper preparation's deposit")
 
 
 class CylinderParams(TriaxialParams):
@@ -84,6 +101,9 @@ class CylinderParams(TriaxialParams):
                                            description="friction of the isotropic stage "
                                                        "(None: the test's own)")
     confine_every: int = Field(10, ge=1, le=STEP_LIMIT, description="steps between confinement updates")
+    confinement: Literal["free_surface", "layer_crown"] = Field(
+        "free_surface", description="free_surface: §3.3's membrane; layer_crown: LMGC90's "
+                                    "3D membrane example")
     torus_strains: list[float] = [0.02, 0.05, 0.1]
 
 
@@ -104,6 +124,7 @@ RESUME_HELP = "go on from the checkpoint a stopped or killed run of the same fil
 
 
 class SlopeParams(SolverParams):
+    sample: Optional[str] = Field(None, description=SAMPLE_HELP)
     tol: float = Field(1e-4, gt=0, lt=1)
     wire_density: Optional[float] = Field(None, gt=0, le=1e8, description="[m/m³]")
     steps: int = Field(4000, ge=1, le=STEP_LIMIT)
@@ -154,6 +175,8 @@ def check_args(test: str, values: dict) -> None:
     """
     cls = PARAMS[test]
     given = {k: values[k] for k in cls.model_fields if k in values}
+    if not isinstance(given.get("sample"), (str, type(None))):
+        given.pop("sample")     # a Sample or a (model, state): engine.experiments.start
     problems = []
     try:
         cls(**given)

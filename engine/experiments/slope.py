@@ -10,12 +10,13 @@ import numpy as np
 
 from ..analysis import slope_profile
 from ..analysis.wire import wire_chains
-from ..prep import slope_sample
+from ..prep import Cylinder, slope_sample
 from ..prep.relax import kinetic_energy
 from ..scene import Scene
 from .params import check_args
+from .start import start_of
 from .common import (RestCheckpoint, RestResult, check_bool,
-                     check_scale, deposit_laws, finish, rest_recording, rest_summary, run_meta,
+                     check_scale, deposit_laws, sample_identity, finish, rest_recording, rest_summary, run_meta,
                      run_identity, run_to_rest, solver_choice, wire_before_after,
                      wire_law_or_default)
 
@@ -83,7 +84,8 @@ def hex_floor(radius: float, extent: float, z: float = 0.0) -> np.ndarray:
     return np.stack([x[keep], y[keep], np.full(keep.sum(), z + radius)], 1)
 
 
-def slope_deposit(scale: float = 0.02, *, wire: bool = True, wire_density: float | None = None,
+def slope_deposit(scale: float = 0.02, *, sample=None, wire: bool = True,
+                  wire_density: float | None = None,
                   wire_law=None, neighbour_contact: bool = False, steps: int = 4000, ke_fraction: float = 1e-4,
                   rubber_radius: float = 0.3e-3, floor_extent: float = 5.0, dt: float = 5e-5,
                   theta: float = 0.5, tol: float = 1e-4, max_iter: int = 1000,
@@ -98,7 +100,10 @@ def slope_deposit(scale: float = 0.02, *, wire: bool = True, wire_density: float
 
     The sample is :func:`engine.prep.slope_sample` (Ø12 mm × 14 mm, 26 000 grains Ø0.2–0.6
     mm + 2 900 beads at 400 km·m⁻³ with a wire-free outer layer at ``scale`` = 1;
-    ``wire_density=800e3`` for the paper's TexSol(2), ``wire=False`` for sand only), lifted
+    ``wire_density=800e3`` for the paper's TexSol(2), ``wire=False`` for sand only), or
+    ``sample``: a geometric sample (:class:`engine.prep.Sample`) or an end state, such as
+    :func:`~engine.experiments.gravity_deposit`'s (:mod:`engine.experiments.start`; its
+    axis is moved onto the floor's centre), lifted
     onto a floor of fixed beads of ``rubber_radius`` [m] on a hexagonal lattice spanning
     ``floor_extent`` × the sample radius, and released (no mould) under gravity.  It runs
     until the sample's kinetic energy is below ``ke_fraction`` of its peak, or ``steps``
@@ -121,20 +126,27 @@ def slope_deposit(scale: float = 0.02, *, wire: bool = True, wire_density: float
     higher degree finds a steeper slope on the same heap (docs/paper.md, Fig. 10).
     """
     check_args("slope_deposit", locals())
-    identity = run_identity(dict(locals(), test="slope_deposit"))
+    identity = run_identity(dict(locals(), sample=sample_identity(sample), test="slope_deposit"))
     scale = check_scale(scale)
     anderson, hot_sweeps = solver_choice(anderson, hot_sweeps)
     ckpt = RestCheckpoint(history, checkpoint_every, record_every, identity)
     resume = check_bool("resume", resume)
     fit_degree = check_fit_degree(fit_degree, wire, PROFILE_BINS)
     law = wire_law_or_default(wire_law) if wire else None
-    sample = slope_sample(scale, wire=wire, wire_density=wire_density, seed=seed)
-    R = sample.container.radius
+    if sample is not None and wire_density is not None:
+        raise ValueError("slope_deposit: wire_density builds the test's own sample; with "
+                         "sample= given, build the sample with it (engine.prep.slope_sample)")
+    st = start_of("slope_deposit", Cylinder, sample,
+                  lambda: slope_sample(scale, wire=wire, wire_density=wire_density, seed=seed),
+                  wire=wire, wire_law=wire_law)
+    wire = st.has_wire
+    law = st.wire_law(law) if wire else None
+    axis = st.axis()
+    R = st.outer_radius(axis)
     lift = 2 * rubber_radius
-    sample.sand_centers = sample.sand_centers + (0, 0, lift)
-    sample.wire = [c + (0, 0, lift) for c in sample.wire]
     sc = Scene(gravity=(0.0, 0.0, -G))
-    sand, beads = sample.add_to(sc, wire_law=law, neighbour_contact=neighbour_contact) if wire else (sample.add_to(sc)[0], [])
+    sand, beads = st.add_to(sc, wire_law=law, neighbour_contact=neighbour_contact,
+                            shift=(-axis[0], -axis[1], lift - st.floor))
     ids = np.concatenate([sand, *beads]) if beads else np.asarray(sand)
     rubber = sc.add_spheres(hex_floor(rubber_radius, floor_extent * R), rubber_radius,
                             density=1000.0, group="rubber")
@@ -143,6 +155,7 @@ def slope_deposit(scale: float = 0.02, *, wire: bool = True, wire_density: float
     deposit_laws(sc, "rubber", mu=mu, mu_support=mu_floor, mu_wire=mu_wire, wire=wire)
     model, state = sc.compile(dt=dt, theta=theta, tol=tol, max_iter=max_iter, relax=relax,
                               anderson=anderson, threads=threads, hot_sweeps=hot_sweeps)
+    model = st.carry_over(model, state)
     chains0 = wire_chains(model, state) if wire else []
     resumed = ckpt.load(model, history) if resume else None
     if resumed is not None:
@@ -154,7 +167,7 @@ def slope_deposit(scale: float = 0.02, *, wire: bool = True, wire_density: float
                                        checkpoint=ckpt, resumed=resumed,
                                        meta=run_meta(
                                            "slope_deposit", steps, scale=scale, seed=seed,
-                                           wire=wire, wire_density=wire_density, wire_law=law,
+                                           sample=st.source, wire=wire, wire_density=wire_density, wire_law=law,
                                            neighbour_contact=neighbour_contact, dt=dt,
                                            theta=theta, tol=tol, max_iter=max_iter, mu=mu,
                                            mu_floor=mu_floor, mu_wire=mu_wire, steps=steps,
@@ -208,16 +221,16 @@ def slope_deposit(scale: float = 0.02, *, wire: bool = True, wire_density: float
         max_slope_deg=prof.max_slope_deg if prof is not None else float("nan"),
         sector_heights=sector_h, floor_force=-fz, weight=weight,
         time=rec.array("time"), kinetic_energy=rec.array("kinetic_energy"),
-        **wire_before_after(chains0, chains1, sample.container.volume), at_rest=at_rest,
+        **wire_before_after(chains0, chains1, st.volume()), at_rest=at_rest,
         history=hist.path,
-        params=dict(scale=scale, wire=wire, wire_density=sample.wire_density,
+        params=dict(scale=scale, sample=st.source, wire=wire, wire_density=st.wire_density,
                     wire_law=repr(law), neighbour_contact=bool(wire and neighbour_contact), steps=steps, ke_fraction=ke_fraction,
                     rubber_radius=rubber_radius, n_rubber=int(len(rubber)),
                     floor_extent=floor_extent, dt=dt, theta=theta, tol=tol,
                     max_iter=max_iter, relax=relax, anderson=anderson, threads=threads,
                     hot_sweeps=hot_sweeps, mu=mu, mu_floor=mu_floor,
                     mu_wire=mu_wire, seed=seed,
-                    n_sand=int(sample.sand_radii.size), n_beads=sample.n_beads,
+                    n_sand=int(st.sand_radii.size), n_beads=st.n_beads,
                     friction_angle_deg=math.degrees(math.atan(mu)),
                     profile_error=profile_error, lost_particles=lost))
     return finish(res, stages, max_nonconverged)

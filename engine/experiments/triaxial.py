@@ -43,6 +43,7 @@ from ..drivers import Confinement
 from ..prep import Box, Cylinder, box_sample, cylinder_sample
 from ..scene import Scene
 from .params import check_args
+from .start import check_preparation, start_of
 from .common import (ConfinementError, Recorder, Stages, TestResult, check_scale,
                      choose_rate, finish, history_writer, run_meta, solver_choice,
                      wire_law_or_default)
@@ -117,13 +118,12 @@ RADIUS_RUNAWAY = 1.5
 CYLINDER_COMPACTION_MU_MIN = 0.1
 
 
-def _stage_arrays(rec, stage_of):
-    st = np.asarray(stage_of)
-    return {k: rec.array(k)[st == 1] for k in rec.rows}, {k: rec.array(k)[st == 0] for k in rec.rows}
-
-
-def cylinder_triaxial(scale: float = 0.05, *, pressure: float = 15e3, wire: bool = True,
-                      wire_law=None, neighbour_contact: bool = False, axial_strain: float = 0.1, strain_rate: float | None = None,
+def cylinder_triaxial(scale: float = 0.05, *, sample=None, preparation: str = "geometric",
+                      pressure: float = 15e3, wire: bool = True,
+                      wire_law=None, neighbour_contact: bool = False,
+                      wire_density: float | None = None, wire_mode: str = "isotropic",
+                      wire_prestrain: float = 0.0, confinement: str = "free_surface",
+                      deposit_steps: int = 6000, axial_strain: float = 0.1, strain_rate: float | None = None,
                       target_I: float = 5e-4, allow_dynamic: bool = False, dt: float = 5e-5,
                       theta: float = 0.5, tol: float = 3e-4, max_iter: int = 1000,
                       relax: float = 1.0, anderson: int = 0, threads: int = 1, hot_sweeps: int | None = None, mu: float = 0.5,
@@ -148,10 +148,33 @@ def cylinder_triaxial(scale: float = 0.05, *, pressure: float = 15e3, wire: bool
     ``neighbour_contact``: linked wire beads also touch like two spheres
     (:meth:`engine.Scene.add_wire`; default False: a slack link lets its two beads overlap).
 
+    What the test starts from (:mod:`engine.experiments.start`, docs/experiments.md):
+
+    * ``sample``: None (the test builds :func:`~engine.prep.cylinder_sample` at ``scale``
+      with ``seed``, ``wire_density`` [m/m³] (None: the paper's) and ``wire_mode``
+      ("isotropic", Eq. 16, or "orthotropic", Eq. 17)); a geometric
+      :class:`engine.prep.Sample` in a cylinder; or an end state: a ``(model, state)``
+      pair, a result with a history (``gravity_deposit``'s) or a history or checkpoint
+      path, whose "sand" and "wire" particles are taken with their velocities and the
+      links' own laws and reference lengths (its walls are left behind).
+    * ``preparation``: "geometric" (the sample as it is) or "paper" (§2.4: the geometric
+      sample relaxed under gravity in its mould first, :func:`gravity_deposit` with the
+      test's solver options, ``mu_wall`` for the mould and at most ``deposit_steps``
+      steps, its history ``<history>.deposit.h5``; then the mould removed).
+    * ``wire_prestrain`` ε₀: at the start of the loading every link's reference length
+      becomes g/(1+ε₀), g its length then, so the preparation cannot relax it.
+    * ``confinement``: "free_surface" (§3.3, :class:`engine.drivers.Confinement`) or
+      "layer_crown" (LMGC90's 3D membrane example, :class:`engine.drivers.LayerCrown`).
+
     Returns a :class:`TestResult` (triaxial stage; the isotropic stage in
     ``extra["isotropic"]``); ``extra`` also holds the toroidal wire-stress maps at
     ``torus_strains`` (Fig. 13c), the macro-stiffness H of (ε_zz, σ_w^eq) (Table 2), the
-    sample radius and height.
+    sample radius and height, the best-fit strains (Eq. 19) of the sand, the wire and all
+    the particles over the loading (``best_fit_strain``, Fig. 12's measure) and
+    ``extra["start"]``: what the test started from (the deposit's history, steps and
+    settlement for the paper preparation) and, at the start of the loading, the sand's
+    solid fraction in the confinement's volume and the wire's share of taut links and
+    mean and largest tension [N].
 
     Raises ValueError for bad input (naming it), ConvergenceError when more than
     ``max_nonconverged`` of the steps hit ``max_iter``.
@@ -165,32 +188,46 @@ def cylinder_triaxial(scale: float = 0.05, *, pressure: float = 15e3, wire: bool
                                    " (at 0 the free-surface confinement let the "
                                    "frictionless grains out)")
     law = wire_law_or_default(wire_law) if wire else None
-    sample = cylinder_sample(scale, wire=wire, seed=seed)
-    across = 2 * sample.container.radius / (2 * float(sample.sand_radii.mean()))
+    _check_prestrain("cylinder_triaxial", wire_prestrain, neighbour_contact)
+    st, deposit = _prepared(
+        "cylinder_triaxial", Cylinder, sample, preparation,
+        lambda: cylinder_sample(scale, wire=wire, wire_density=wire_density,
+                                wire_mode=wire_mode, seed=seed),
+        wire=wire, wire_law=wire_law, law=law, wire_density=wire_density,
+        wire_mode=wire_mode, neighbour_contact=neighbour_contact, history=history,
+        progress=progress, deposit=dict(
+            dt=dt, theta=theta, tol=tol, max_iter=max_iter, relax=relax, anderson=anderson,
+            threads=threads, hot_sweeps=hot_sweeps, mu=mu, mu_wall=mu_wall, mu_wire=mu_wire,
+            steps=deposit_steps, max_nonconverged=max_nonconverged, seed=seed))
+    wire = st.has_wire
+    law = st.wire_law(law) if wire else None
+    axis = st.axis()
+    across = 2 * st.outer_radius(axis) / (2 * float(st.sand_radii.mean()))
     if across < 5.5:
         raise ValueError(
             f"scale {scale} gives a sample {across:.1f} mean grain diameters across; the "
             f"free-surface confinement needs at least 5.5 (scale >= 0.04): on thinner samples "
             f"it threw grains out at tens of m/s (measured at scale 0.03)")
     sc = Scene(gravity=(0.0, 0.0, -G))
-    sand, beads = sample.add_to(sc, wire_law=law, neighbour_contact=neighbour_contact) if wire else (sample.add_to(sc)[0], [])
-    floor = sc.add_plane(point=(0, 0, 0), normal=(0, 0, 1), group="wall")
-    top_z = sample.height
-    d_mean = 2 * float(sample.sand_radii.mean())
+    sand, beads = st.add_to(sc, wire_law=law, neighbour_contact=neighbour_contact)
+    floor = sc.add_plane(point=(axis[0], axis[1], st.floor), normal=(0, 0, 1), group="wall")
+    top_z = st.floor + st.height
+    d_mean = 2 * float(st.sand_radii.mean())
     rate, I = choose_rate(strain_rate, p, d_mean, 2650.0, target_I=target_I,
                           allow_dynamic=allow_dynamic)
     p_now = _Pressure()
     # the membrane loads go on sand grains only: a cell's share on a light wire bead
     # accelerates it by ~1e6 m/s² and blew the run up
-    conf = Confinement(0.0, np.asarray(sand), max_growth=RADIUS_RUNAWAY)
-    m_sample = float(model_mass(sample))
-    top = sc.add_plane(point=(0, 0, top_z), normal=(0, 0, -1), group="wall")
+    conf = _membrane(confinement, np.asarray(sand), axis)
+    m_sample = st.sand_mass
+    top = sc.add_plane(point=(axis[0], axis[1], top_z), normal=(0, 0, -1), group="wall")
     sc.drive(top, pressure=p_now, mass=0.2 * m_sample,
              area=lambda model, state: math.pi * conf.radius ** 2)
     sc.fix(floor)
     _laws_for(sc, mu, mu_wall, mu_wire, wire)
     model, state = sc.compile(dt=dt, theta=theta, tol=tol, max_iter=max_iter, relax=relax,
                               anderson=anderson, threads=threads, hot_sweeps=hot_sweeps)
+    model = st.carry_over(model, state)
     conf.apply(model, state)
 
     def confine():
@@ -204,7 +241,6 @@ def cylinder_triaxial(scale: float = 0.05, *, pressure: float = 15e3, wire: bool
                 f"{history} keeps the steps run so far.") from e
 
     model_iso = _compaction(model, compaction_mu)
-    x_ref = {}
     stage = {"value": 0}
     stage_of = []
 
@@ -229,7 +265,8 @@ def cylinder_triaxial(scale: float = 0.05, *, pressure: float = 15e3, wire: bool
     H0 = top_z
     est_steps = iso_max_steps + int(eps_max / (rate * dt)) + 1
     hist = history_writer(history, rec, units, record_every, frames, meta=run_meta(
-        "cylinder_triaxial", est_steps, scale=scale, seed=seed, pressure=p, wire=wire,
+        "cylinder_triaxial", est_steps, scale=scale, seed=seed, sample=st.source,
+        preparation=preparation, confinement=confinement, pressure=p, wire=wire,
         wire_law=law, neighbour_contact=neighbour_contact, axial_strain=eps_max,
         strain_rate=rate, dt=dt, theta=theta, tol=tol, max_iter=max_iter, mu=mu,
         mu_wall=mu_wall, mu_wire=mu_wire))
@@ -237,6 +274,8 @@ def cylinder_triaxial(scale: float = 0.05, *, pressure: float = 15e3, wire: bool
                     desc="cylinder triaxial")
     maps = {}
     R0 = conf.radius
+    preload = None
+    strains = {}
     try:
         # stage 1: isotropic
         def set_pressure(v):
@@ -255,8 +294,11 @@ def cylinder_triaxial(scale: float = 0.05, *, pressure: float = 15e3, wire: bool
         stage["value"] = 1
         stages.set_stage("loading")
         H0 = state.position[top, 2] - state.position[floor, 2]
-        x_ref["pos"] = state.position.copy()
         R0 = conf.radius
+        ref = state.position.copy()
+        preload = _loading_start(model, state, st, math.pi * R0 ** 2 * H0)
+        if wire and wire_prestrain:
+            model = _prestrained(model, state, wire_prestrain)
         model = stages.model = model.with_drive(top, velocity=(0.0, 0.0, -rate * H0))
         n_load = int(math.ceil(eps_max / (rate * dt)))
         targets = sorted(float(e) for e in torus_strains if e <= eps_max + 1e-12)
@@ -274,26 +316,36 @@ def cylinder_triaxial(scale: float = 0.05, *, pressure: float = 15e3, wire: bool
             # by θ h ε̇): a target equal to it is taken there
             while targets and wire and (eps >= targets[0] or (last and targets[0] >= eps_max - 1e-12)):
                 e = targets.pop(0)
-                maps[e] = toroidal_map(model, state, Cylinder(conf.radius, H), part="wire")
+                maps[e] = toroidal_map(model, state, Cylinder(conf.radius, H, (
+                    axis[0], axis[1], state.position[floor, 2])), part="wire")
         stages.record_last()
+        strains = _best_fit(ref, state, sand, np.concatenate(beads) if beads else
+                            np.zeros(0, np.int64))
     finally:
         stages.close()
         hist.close()
     tri, iso = _split(rec, stage_of)
     res = _result("cylinder_triaxial", tri, H0, history)
-    res.params = dict(scale=scale, pressure=p, wire=wire, wire_law=repr(law), neighbour_contact=bool(wire and neighbour_contact), axial_strain=eps_max,
+    res.params = dict(scale=scale, sample=st.source, preparation=preparation,
+                      confinement=confinement, wire_density=st.wire_density,
+                      wire_mode=wire_mode if sample is None else None,
+                      wire_prestrain=wire_prestrain if wire else 0.0,
+                      deposit_steps=deposit_steps if deposit is not None else None,
+                      pressure=p, wire=wire, wire_law=repr(law), neighbour_contact=bool(wire and neighbour_contact), axial_strain=eps_max,
                       strain_rate=rate, inertial_number=I, loading_velocity=rate * H0, dt=dt,
                       theta=theta, tol=tol, max_iter=max_iter, anderson=anderson, threads=threads,
                       hot_sweeps=hot_sweeps, mu=mu,
                       mu_wall=mu_wall,
                       mu_wire=mu_wire, compaction_mu=compaction_mu, seed=seed,
-                      n_sand=int(sample.sand_radii.size),
-                      n_beads=sample.n_beads, d_mean=d_mean, iso_reached=iso_reached)
+                      n_sand=int(st.sand_radii.size),
+                      n_beads=st.n_beads, d_mean=d_mean, iso_reached=iso_reached)
+    res.extra["start"] = _start_extra(st, deposit, preload)
     if len(res.time):
         res.extra["radial_strain"] = tri["radius"] / R0 - 1          # extension positive
     res.extra["isotropic"] = dict(time=iso.get("time"), mean_stress=_mean(iso.get("stress")),
                                   axial_stress=_axial(iso.get("stress")), reached=iso_reached)
     res.extra["torus_maps"] = maps
+    res.extra["best_fit_strain"] = strains
     res.extra["height"], res.extra["radius"] = tri.get("height"), tri.get("radius")
     if wire and len(res.time) >= 5:
         try:
@@ -302,6 +354,109 @@ def cylinder_triaxial(scale: float = 0.05, *, pressure: float = 15e3, wire: bool
             res.extra["H"] = None
             res.extra["H_error"] = str(e)
     return finish(res, stages, max_nonconverged)
+
+
+def _prepared(test, shape, sample, preparation, build, *, wire, wire_law, law, wire_density,
+              wire_mode, neighbour_contact, history, progress, deposit):
+    """(the :class:`~engine.experiments.start.Start` of a triaxial test, the deposit's
+    result or None): ``sample`` or ``build()``'s sample, prepared as ``preparation`` says
+    (:mod:`engine.experiments.start`); ``deposit``: the keywords of the paper
+    preparation's :func:`~engine.experiments.gravity_deposit`."""
+    preparation = check_preparation(preparation)
+    if sample is not None and (wire_density is not None or wire_mode != "isotropic"):
+        raise ValueError(f"{test}: wire_density and wire_mode build the test's own sample; "
+                         f"with sample= given, build the sample with them "
+                         f"(engine.prep.{shape.__name__.lower()}_sample)")
+    st = start_of(test, shape, sample, build, wire=wire, wire_law=wire_law)
+    if preparation == "geometric":
+        return st, None
+    if st.sample is None:
+        raise ValueError(f"{test}: preparation = 'paper' relaxes a geometric sample in its "
+                         f"mould first; the sample given is {st.source}, an end state "
+                         f"already (use preparation='geometric')")
+    from .deposit import gravity_deposit
+
+    dep = gravity_deposit(sample=st.sample, wire=st.has_wire, wire_law=law,
+                          neighbour_contact=neighbour_contact,
+                          history=deposit_history(history), progress=progress, **deposit)
+    return start_of(test, shape, dep.history, None, wire=wire), dep
+
+
+def deposit_history(history) -> str:
+    """Where the paper preparation's deposit writes its history: ``history`` with the
+    suffix ``.deposit.h5``."""
+    root, ext = os.path.splitext(os.fspath(history))
+    return root + ".deposit.h5"
+
+
+def _check_prestrain(test, eps, neighbour_contact):
+    if eps and neighbour_contact:
+        raise ValueError(f"{test}: wire_prestrain = {eps:g} with neighbour_contact = True: a "
+                         f"prestrained link pulls its beads into their contact; use one or "
+                         f"the other")
+
+
+def _prestrained(model, state, eps):
+    """``model`` with every link's reference length g/(1+ε₀), g its length in ``state`` (the
+    prestrain ``wire_prestrain`` of the triaxial tests, set at the start of the loading so
+    that the preparation cannot relax it)."""
+    from dataclasses import replace
+
+    g = np.linalg.norm(state.position[model.link_i] - state.position[model.link_j], axis=1)
+    return replace(model, link_ref_length=g / (1.0 + float(eps)))
+
+
+def _loading_start(model, state, st, volume):
+    """What the sample is at the start of the loading: its sand's solid fraction in
+    ``volume`` [m³] and its wire's preload (share of taut links, mean and largest tension
+    [N])."""
+    out = dict(volume=float(volume), solid_fraction=float(
+        (4 / 3 * np.pi * (st.sand_radii ** 3).sum()) / volume))
+    if model.n_links:
+        t = state.links.tension
+        out.update(taut_share=float(np.mean(t > 0)), mean_tension=float(t.mean()),
+                   max_tension=float(t.max()))
+    return out
+
+
+def _best_fit(ref, state, sand, beads) -> dict:
+    """Best-fit strains (Eq. 19) of the sand, the wire and all the particles from ``ref``
+    (the positions at the start of the loading) to ``state`` (Fig. 12's measure)."""
+    sand = np.asarray(sand)
+    out = {}
+    for name, sel in (("sand", sand), ("wire", beads), ("all", np.concatenate([sand, beads]))):
+        if sel.size >= 4:
+            out[name] = best_fit_strain(ref, state.position, sel)
+    return out
+
+
+def _start_extra(st, deposit, loading_start) -> dict:
+    """``result.extra["start"]``: what the test started from and what it was at the start of
+    the loading."""
+    out = dict(source=st.source, deposit=None)
+    if deposit is not None:
+        out["deposit"] = dict(history=deposit.history, at_rest=deposit.at_rest,
+                              steps=deposit.convergence.get("steps"),
+                              settlement=deposit.settlement,
+                              slack_share=deposit.slack_share)
+    out.update(loading_start or {})
+    return out
+
+
+#: The lateral confinements of the cylinder test (its ``confinement``): the free-surface
+#: membrane of §3.3 (:class:`engine.drivers.Confinement`) and the layer crowns of LMGC90's
+#: 3D membrane example (:class:`engine.drivers.LayerCrown`).
+CONFINEMENTS = ("free_surface", "layer_crown")
+
+
+def _membrane(kind, sand, axis):
+    from ..drivers import LayerCrown
+
+    if kind == "free_surface":
+        return Confinement(0.0, sand, center=axis, max_growth=RADIUS_RUNAWAY)
+    if kind == "layer_crown":
+        return LayerCrown(0.0, sand, center=axis, max_growth=RADIUS_RUNAWAY)
+    raise ValueError(f"confinement = {kind!r}: must be one of {', '.join(map(repr, CONFINEMENTS))}")
 
 
 def _isotropic(stages, every, max_steps, ramp_steps, p, set_pressure, measure, iso_tol,
@@ -333,11 +488,6 @@ def _isotropic(stages, every, max_steps, ramp_steps, p, set_pressure, measure, i
                       f"stresses were {got} Pa; the loading starts from there. Raise "
                       f"iso_max_steps", RuntimeWarning, stacklevel=3)
     return reached
-
-
-def model_mass(sample, density=2650.0):
-    """Mass of the sample's sand [kg]."""
-    return float(density * 4 / 3 * np.pi * (sample.sand_radii ** 3).sum())
 
 
 def _weber(model, state, part, V):
@@ -405,8 +555,12 @@ def _result(name, tri, H0, history):
         history=os.path.abspath(history))
 
 
-def box_triaxial(scale: float = 0.05, *, pressure: float = 15e3, wire: bool = True,
-                 wire_law=None, neighbour_contact: bool = False, bead_radius: float | None = None, axial_strain: float = 0.05,
+def box_triaxial(scale: float = 0.05, *, sample=None, preparation: str = "geometric",
+                 pressure: float = 15e3, wire: bool = True,
+                 wire_law=None, neighbour_contact: bool = False, bead_radius: float | None = None,
+                 wire_density: float | None = None, wire_mode: str = "isotropic",
+                 wire_prestrain: float = 0.0, deposit_steps: int = 6000,
+                 axial_strain: float = 0.05,
                  strain_rate: float | None = None, target_I: float = 5e-4,
                  allow_dynamic: bool = False, dt: float = 5e-5, theta: float = 0.5,
                  tol: float = 3e-4, max_iter: int = 1000, relax: float = 1.0,
@@ -428,6 +582,10 @@ def box_triaxial(scale: float = 0.05, *, pressure: float = 15e3, wire: bool = Tr
     ``compaction_mu``: the friction of the isotropic stage, see :func:`_compaction`.
     ``neighbour_contact``: linked wire beads also touch like two spheres
     (:meth:`engine.Scene.add_wire`; default False: a slack link lets its two beads overlap).
+    ``sample``, ``preparation``, ``wire_density``, ``wire_mode``, ``wire_prestrain`` and
+    ``deposit_steps`` as in :func:`cylinder_triaxial` (a box sample; the paper
+    preparation's mould is the box's floor and four sides, with ``mu_wall``; the walls of
+    an end state's box are where its side planes were, else at its particles' extent).
 
     ``extra`` holds the wall stresses (compression positive: x−, x+, y−, y+, top) per
     record, the wire Weber stress of the upper and lower halves with principal values and
@@ -441,17 +599,32 @@ def box_triaxial(scale: float = 0.05, *, pressure: float = 15e3, wire: bool = Tr
     eps_max = float(axial_strain)
     compaction_mu = _compaction_mu(compaction_mu)
     law = wire_law_or_default(wire_law) if wire else None
-    sample = box_sample(scale, wire=wire, bead_radius=bead_radius, seed=seed)
-    box = sample.container
+    _check_prestrain("box_triaxial", wire_prestrain, neighbour_contact)
+    if sample is not None and bead_radius is not None:
+        raise ValueError("box_triaxial: bead_radius builds the test's own sample; with sample= "
+                         "given, build the sample with it (engine.prep.box_sample)")
+    st, deposit = _prepared(
+        "box_triaxial", Box, sample, preparation,
+        lambda: box_sample(scale, wire=wire, wire_density=wire_density, wire_mode=wire_mode,
+                           bead_radius=bead_radius, seed=seed),
+        wire=wire, wire_law=wire_law, law=law, wire_density=wire_density,
+        wire_mode=wire_mode, neighbour_contact=neighbour_contact, history=history,
+        progress=progress, deposit=dict(
+            dt=dt, theta=theta, tol=tol, max_iter=max_iter, relax=relax, anderson=anderson,
+            threads=threads, hot_sweeps=hot_sweeps, mu=mu, mu_wall=mu_wall, mu_wire=mu_wire,
+            steps=deposit_steps, max_nonconverged=max_nonconverged, seed=seed))
+    wire = st.has_wire
+    law = st.wire_law(law) if wire else None
+    box = st.box()
     lo, hi = np.array(box.lo), np.array(box.hi)
     sc = Scene(gravity=(0.0, 0.0, -G))
-    sand, beads = sample.add_to(sc, wire_law=law, neighbour_contact=neighbour_contact) if wire else (sample.add_to(sc)[0], [])
+    sand, beads = st.add_to(sc, wire_law=law, neighbour_contact=neighbour_contact)
     bead_ids = np.concatenate(beads) if beads else np.zeros(0, np.int64)
-    top_z = sample.height
-    d_mean = 2 * float(sample.sand_radii.mean())
+    top_z = st.height
+    d_mean = 2 * float(st.sand_radii.mean())
     rate, I = choose_rate(strain_rate, p, d_mean, 2650.0, target_I=target_I,
                           allow_dynamic=allow_dynamic)
-    m_sample = model_mass(sample)
+    m_sample = st.sand_mass
     wall_mass = 0.2 * m_sample if wall_mass is None else float(wall_mass)   # (checked: BoxParams)
     floor = sc.add_plane(point=(0, 0, lo[2]), normal=(0, 0, 1), group="wall")
     p_now = _Pressure()
@@ -481,6 +654,7 @@ def box_triaxial(scale: float = 0.05, *, pressure: float = 15e3, wire: bool = Tr
     _laws_for(sc, mu, mu_wall, mu_wire, wire)
     model, state = sc.compile(dt=dt, theta=theta, tol=tol, max_iter=max_iter, relax=relax,
                               anderson=anderson, threads=threads, hot_sweeps=hot_sweeps)
+    model = st.carry_over(model, state)
     stage = {"value": 0}
     stage_of = []
     walls = np.array([*sides, top])
@@ -530,7 +704,8 @@ def box_triaxial(scale: float = 0.05, *, pressure: float = 15e3, wire: bool = Tr
                  radius="m", stage="-", time="s", step="-")
     est_steps = iso_max_steps + int(eps_max / (rate * dt)) + 1
     hist = history_writer(history, rec, units, record_every, frames, meta=run_meta(
-        "box_triaxial", est_steps, scale=scale, seed=seed, pressure=p, wire=wire,
+        "box_triaxial", est_steps, scale=scale, seed=seed, sample=st.source,
+        preparation=preparation, pressure=p, wire=wire,
         wire_law=law, neighbour_contact=neighbour_contact, axial_strain=eps_max,
         strain_rate=rate, dt=dt, theta=theta, tol=tol, max_iter=max_iter, mu=mu,
         mu_wall=mu_wall, mu_wire=mu_wire))
@@ -538,6 +713,7 @@ def box_triaxial(scale: float = 0.05, *, pressure: float = 15e3, wire: bool = Tr
                     total=est_steps, desc="box triaxial")
     strains = {}
     H0 = top_z
+    preload = None
     try:
         def measure():
             Lx, Ly, H = dims(state)
@@ -552,29 +728,34 @@ def box_triaxial(scale: float = 0.05, *, pressure: float = 15e3, wire: bool = Tr
         stages.set_stage("loading")
         H0 = dims(state)[2]
         ref = state.position.copy()
+        preload = _loading_start(model, state, st, float(np.prod(dims(state))))
+        if wire and wire_prestrain:
+            model = _prestrained(model, state, wire_prestrain)
         model = stages.model = model.with_drive(top, velocity=(0.0, 0.0, -rate * H0))
         n_load = int(math.ceil(eps_max / (rate * dt)))
         if not stages.interrupted:
             stages.run(n_load)
         stages.record_last()
-        sand_ids = np.asarray(sand)
-        for name, sel in (("sand", sand_ids), ("wire", bead_ids),
-                          ("all", np.concatenate([sand_ids, bead_ids]))):
-            if sel.size >= 4:
-                strains[name] = best_fit_strain(ref, state.position, sel)
+        strains = _best_fit(ref, state, sand, bead_ids)
     finally:
         stages.close()
         hist.close()
     tri, iso = _split(rec, stage_of)
     res = _result("box_triaxial", tri, H0, history)
-    res.params = dict(scale=scale, pressure=p, wire=wire, wire_law=repr(law), neighbour_contact=bool(wire and neighbour_contact),
-                      bead_radius=sample.bead_radius, axial_strain=eps_max, strain_rate=rate,
+    res.params = dict(scale=scale, sample=st.source, preparation=preparation,
+                      wire_density=st.wire_density,
+                      wire_mode=wire_mode if sample is None else None,
+                      wire_prestrain=wire_prestrain if wire else 0.0,
+                      deposit_steps=deposit_steps if deposit is not None else None,
+                      pressure=p, wire=wire, wire_law=repr(law), neighbour_contact=bool(wire and neighbour_contact),
+                      bead_radius=st.bead_radius if wire else None, axial_strain=eps_max, strain_rate=rate,
                       inertial_number=I, loading_velocity=rate * H0, dt=dt, theta=theta,
                       tol=tol, max_iter=max_iter, anderson=anderson, threads=threads,
                       hot_sweeps=hot_sweeps, mu=mu, mu_wall=mu_wall,
                       mu_wire=mu_wire, compaction_mu=compaction_mu,
-                      wall_mass=wall_mass, seed=seed, n_sand=int(sample.sand_radii.size),
-                      n_beads=sample.n_beads, d_mean=d_mean, iso_reached=iso_reached)
+                      wall_mass=wall_mass, seed=seed, n_sand=int(st.sand_radii.size),
+                      n_beads=st.n_beads, d_mean=d_mean, iso_reached=iso_reached)
+    res.extra["start"] = _start_extra(st, deposit, preload)
     res.extra["isotropic"] = dict(time=iso.get("time"), mean_stress=_mean(iso.get("stress")),
                                   axial_stress=_axial(iso.get("stress")),
                                   wall_stress=iso.get("wall_stress"), reached=iso_reached)

@@ -35,7 +35,8 @@ from .containers import Box, Cylinder
 from .deposit import DepositError, geometric
 from .wire import KM_PER_M3, random_walk
 
-__all__ = ["Sample", "paper_sample", "cylinder_sample", "box_sample", "slope_sample", "PAPER"]
+__all__ = ["Sample", "paper_sample", "cylinder_sample", "box_sample", "slope_sample", "PAPER",
+           "WIRE_MODES"]
 
 PAPER = {
     "cylinder": dict(diameter=9e-3, height=20e-3, n_sand=6200, d_min=0.3e-3, d_max=0.8e-3,
@@ -111,7 +112,7 @@ class Sample:
 
 
 def _build(name, container, wire_region, radii, *, wire, wire_density, bead_radius, seed,
-           deposit_height_factor=1.5):
+           wire_mode="isotropic", deposit_height_factor=1.5):
     bead_radius = float(bead_radius)
     gap = 0.2 * bead_radius
     t0 = time.perf_counter()
@@ -119,7 +120,7 @@ def _build(name, container, wire_region, radii, *, wire, wire_density, bead_radi
     if wire:
         chains = random_walk(wire_region, bead_radius, gap,
                              length=wire_density * container.volume, seed=seed,
-                             search_angle=math.pi / 4)
+                             search_angle=math.pi / 4, mode=wire_mode)
     t1 = time.perf_counter()
     obstacles = None
     if chains:
@@ -157,10 +158,19 @@ def _build(name, container, wire_region, radii, *, wire, wire_density, bead_radi
 #: (issue 33); at 10 grains every sample builds, with and without a wire (seeds 0-3).
 MIN_GRAINS = 10
 
+#: The wire walks of the samples: Eq. (16) and Eq. (17) (:func:`engine.prep.random_walk`).
+WIRE_MODES = ("isotropic", "orthotropic")
 
-def _paper(name, container, wire_region, scale, *, wire, wire_density, bead_radius, seed):
-    """The paper's grains for ``name`` at ``scale`` in ``container``, and the wire."""
+
+def _paper(name, container, wire_region, scale, *, wire, wire_density, bead_radius, seed,
+           wire_mode="isotropic"):
+    """The paper's grains for ``name`` at ``scale`` in ``container``, and the wire (walked by
+    Eq. 16, ``wire_mode="isotropic"``, or Eq. 17, ``"orthotropic"``: horizontal layers with a
+    rise angle of 5°, :func:`engine.prep.random_walk`)."""
     p = PAPER[name]
+    if wire_mode not in WIRE_MODES:
+        raise ValueError(f"wire_mode = {wire_mode!r}: must be one of "
+                         f"{', '.join(map(repr, WIRE_MODES))}")
     if isinstance(seed, bool) or not isinstance(seed, (int, np.integer)) or seed < 0:
         raise ValueError(f"seed must be an integer >= 0, got {seed!r}")
     for key, v in (("wire_density", wire_density), ("bead_radius", bead_radius)):
@@ -178,7 +188,8 @@ def _paper(name, container, wire_region, scale, *, wire, wire_density, bead_radi
     radii = granulometry.uniform(p["d_min"], p["d_max"], n=n, seed=seed + 2)
     return _build(name, container, wire_region, radii, wire=wire,
                   wire_density=p["wire_density"] if wire_density is None else wire_density,
-                  bead_radius=p["bead_radius"] if bead_radius is None else bead_radius, seed=seed)
+                  bead_radius=p["bead_radius"] if bead_radius is None else bead_radius, seed=seed,
+                  wire_mode=wire_mode)
 
 
 def _scale(scale):
@@ -189,7 +200,7 @@ def _scale(scale):
 
 
 def cylinder_sample(scale: float = 1.0, *, wire: bool = True, wire_density: float | None = None,
-                    bead_radius: float | None = None, seed: int = 0) -> Sample:
+                    bead_radius: float | None = None, seed: int = 0, wire_mode: str = "isotropic") -> Sample:
     """The cylinder triaxial sample (§3.3): Ø9 mm × 20 mm, 6 200 grains Ø0.3–0.8 mm and a wire
     at 250 km·m⁻³ (about 1 100 beads) at scale 1.  ``wire=False``: sand only."""
     p = PAPER["cylinder"]
@@ -197,11 +208,11 @@ def cylinder_sample(scale: float = 1.0, *, wire: bool = True, wire_density: floa
     L = s ** (1.0 / 3.0)
     c = Cylinder(0.5 * p["diameter"] * L, p["height"] * L)
     return _paper("cylinder", c, c, s, wire=wire, wire_density=wire_density,
-                  bead_radius=bead_radius, seed=seed)
+                  bead_radius=bead_radius, seed=seed, wire_mode=wire_mode)
 
 
 def box_sample(scale: float = 1.0, *, wire: bool = True, wire_density: float | None = None,
-               bead_radius: float | None = None, seed: int = 0) -> Sample:
+               bead_radius: float | None = None, seed: int = 0, wire_mode: str = "isotropic") -> Sample:
     """The box triaxial sample (§3.2): a 16 mm cube, 6 500 grains and a wire at 200 km·m⁻³
     (8 000 particles in all at scale 1).  ``bead_radius`` r_w (Fig. 12: r_min, r_min/3,
     r_min/4; default r_min)."""
@@ -209,11 +220,11 @@ def box_sample(scale: float = 1.0, *, wire: bool = True, wire_density: float | N
     a = PAPER["box"]["side"] * s ** (1.0 / 3.0)
     c = Box((0.0, 0.0, 0.0), (a, a, a))
     return _paper("box", c, c, s, wire=wire, wire_density=wire_density,
-                  bead_radius=bead_radius, seed=seed)
+                  bead_radius=bead_radius, seed=seed, wire_mode=wire_mode)
 
 
 def slope_sample(scale: float = 1.0, *, wire: bool = True, wire_density: float | None = None,
-                 bead_radius: float | None = None, seed: int = 0) -> Sample:
+                 bead_radius: float | None = None, seed: int = 0, wire_mode: str = "isotropic") -> Sample:
     """The slope-deposit sample (§3.1): Ø12 mm × 14 mm, 26 000 grains Ø0.2–0.6 mm and a wire
     at 400 km·m⁻³ (about 2 900 beads Ø0.2 mm), with no wire in an outer layer 2 d_max thick
     (at most a quarter of the radius).  ``wire_density=800e3`` gives the paper's TexSol(2)."""
@@ -224,7 +235,7 @@ def slope_sample(scale: float = 1.0, *, wire: bool = True, wire_density: float |
     layer = min(2 * p["d_max"], 0.25 * c.radius)
     inner = Cylinder(c.radius - layer, c.height)
     return _paper("slope", c, inner, s, wire=wire, wire_density=wire_density,
-                  bead_radius=bead_radius, seed=seed)
+                  bead_radius=bead_radius, seed=seed, wire_mode=wire_mode)
 
 
 _BUILDERS = {"cylinder": cylinder_sample, "box": box_sample, "slope": slope_sample}

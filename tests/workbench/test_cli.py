@@ -268,3 +268,25 @@ def test_run_files_know_every_wire_law(tmp_path):
                         r"wire.prestrain = 2.0: must be a number in \(-1, 1\]")):
         with pytest.raises(cli.ConfigError, match=says):
             cli.validate_config({"test": "gravity_deposit", "wire": wire})
+
+
+def test_a_run_file_starts_from_a_deposits_end_state(tmp_path):
+    """``sample = "DEPOSIT.h5"`` in [parameters]: the test starts from the file's last state
+    with its wire's own law (the same run as in Python); a [wire] law beside it is refused
+    at validation, naming both."""
+    from engine.experiments import cylinder_triaxial, gravity_deposit
+    from engine.prep import cylinder_sample
+
+    dep = gravity_deposit(sample=cylinder_sample(0.05, seed=0), dt=5e-5, tol=3e-4,
+                          steps=300, history=str(tmp_path / "dep.h5"), progress=False)
+    raw = {"test": "cylinder_triaxial", "scale": 0.05,
+           "parameters": {"sample": dep.history, "axial_strain": 0.003}}
+    cfg, params = cli.validate_config(raw)
+    res = cli.run_config(cfg, params, tmp_path / "run", progress=False)
+    ref = cylinder_triaxial(sample=dep.history, axial_strain=0.003, progress=False,
+                            history=str(tmp_path / "ref.h5"))
+    assert res.params["sample"] == f"the end state of {dep.history}"
+    assert np.array_equal(res.deviator, ref.deviator)
+    with pytest.raises(cli.ConfigError, match="wire: a \\[wire\\] law with parameters.sample"):
+        cli.validate_config(dict(raw, wire={"law": "rigid"}))
+    cli.validate_config(dict(raw, wire={"law": "none"}))       # accepted: a sand-only check

@@ -1,0 +1,228 @@
+"""When does the wire reinforce the sand? (issue 30 §3-4; bench/study_reinforcement.py,
+docs/reinforcement.md)
+
+The cylinder triaxial test (§3.3) of every case of :func:`cases`, one factor at a time from
+a baseline, each wire run against the sand run of the same seed, preparation and
+confinement.  :func:`case` runs one (a module-level function: the sweep's Dask workers
+import it) and returns its scalars; :func:`summarize` pairs them by seed into Δq/q with
+two standard errors; :func:`figure` draws Δq/q against each factor.
+
+Baseline: the paper's cylinder at ``scale`` (1: Ø9 mm × 20 mm, 6 200 grains, a wire of
+250 km·m⁻³ walked by Eq. 16), ElasticWire(k = 1 N), μ = 0.5, μ_wire = 0.3, p = 15 kPa, 10 %
+strain, the paper's preparation (§2.4: the geometric sample relaxed under gravity in its
+mould, then confined on its free surface, §3.3).
+"""
+from __future__ import annotations
+
+import math
+import os
+
+import numpy as np
+
+__all__ = ["BASELINE", "FACTORS", "STRAINS", "cases", "case", "summarize", "figure"]
+
+#: The strains at which q is compared [-].
+STRAINS = (0.02, 0.05, 0.10)
+
+#: The baseline's parameters (a case is the baseline with one of them changed).
+BASELINE = dict(wire="elastic", k=1.0, preparation="paper", wire_density=None,
+                wire_mode="isotropic", mu_wire=0.3, wire_prestrain=0.0,
+                confinement="free_surface")
+
+#: factor -> [(level label, the parameters that differ from the baseline)], in the order the
+#: study runs them (the law and preparation first: what Fig. 14 and Table 2 are about).
+FACTORS = {
+    "law, paper preparation": [("rigid", dict(wire="rigid", k=None)), ("k = 0.2 N", dict(k=0.2)),
+                               ("k = 1 N", {}), ("k = 10 N", dict(k=10.0))],
+    "law, geometric preparation": [
+        ("rigid", dict(wire="rigid", k=None, preparation="geometric")),
+        ("k = 0.2 N", dict(k=0.2, preparation="geometric")),
+        ("k = 1 N", dict(preparation="geometric")),
+        ("k = 10 N", dict(k=10.0, preparation="geometric"))],
+    "wire content": [("2 × (500 km/m³)", dict(wire_density=500e3)),
+                     ("4 × (1 000 km/m³)", dict(wire_density=1000e3))],
+    "orthotropic wire (Eq. 17)": [("orthotropic", dict(wire_mode="orthotropic"))],
+    "wire–sand friction": [("μ_wire = 0.5 (the sand's)", dict(mu_wire=0.5)),
+                           ("μ_wire = 0.8", dict(mu_wire=0.8))],
+    "prestrain at the loading": [("ε₀ = 1 %", dict(wire_prestrain=0.01)),
+                                 ("ε₀ = 5 %", dict(wire_prestrain=0.05))],
+    "layer-crown confinement": [("k = 1 N", dict(confinement="layer_crown"))],
+}
+
+
+def _sand_key(params) -> tuple:
+    """What the sand run a wire run is compared with shares with it."""
+    return params["seed"], params["preparation"], params["confinement"]
+
+
+def cases(seeds, scale=1.0, *, factors=None, axial_strain=0.1) -> list[dict]:
+    """Every case of the study for ``seeds`` (seed-major within each factor, so the first
+    seeds of the first factors finish first), the sand runs they need first; each a dict of
+    JSON-able parameters with its ``name``."""
+    out, seen = [], set()
+    for factor in (factors or FACTORS):
+        for label, change in FACTORS[factor]:
+            for seed in seeds:
+                p = dict(BASELINE, **change, seed=int(seed), scale=float(scale),
+                         axial_strain=float(axial_strain))
+                sand = dict(p, wire="none", k=None, wire_density=None, wire_mode="isotropic",
+                            mu_wire=BASELINE["mu_wire"], wire_prestrain=0.0)
+                for c in (sand, p):
+                    c["name"] = _name(c)
+                    if c["name"] not in seen:
+                        seen.add(c["name"])
+                        out.append(c)
+    return out
+
+
+def _name(p) -> str:
+    if p["wire"] == "none":
+        parts = ["sand"]
+    else:
+        parts = [p["wire"] if p["k"] is None else f"k{p['k']:g}"]
+        if p["wire_density"] is not None:
+            parts.append(f"wd{p['wire_density'] / 1e3:g}k")
+        if p["wire_mode"] != "isotropic":
+            parts.append(p["wire_mode"])
+        if p["mu_wire"] != BASELINE["mu_wire"]:
+            parts.append(f"muw{p['mu_wire']:g}")
+        if p["wire_prestrain"]:
+            parts.append(f"eps{p['wire_prestrain']:g}")
+    parts += [p["preparation"], p["confinement"], f"seed{p['seed']}"]
+    return "_".join(parts)
+
+
+def _q_parts(stress) -> np.ndarray:
+    """q = σ_a − σ_r (compression positive) of Weber tensors (tension positive) (n, 3, 3)."""
+    s = np.asarray(stress)
+    return -s[:, 2, 2] + (s[:, 0, 0] + s[:, 1, 1]) / 2
+
+
+def case(*, name, wire, k, seed, runs_dir, scale=1.0, **params) -> dict:
+    """One cylinder triaxial run of the study; its scalars (q, its sand and wire parts at
+    :data:`STRAINS`, the state at the start of the loading, the wire–sand sliding, the
+    solver's figures)."""
+    from engine import laws
+    from engine.experiments import cylinder_triaxial
+    from engine.sweep import not_interrupted
+
+    os.makedirs(runs_dir, exist_ok=True)
+    law = None if wire == "none" else (laws.RigidWire() if wire == "rigid"
+                                       else laws.ElasticWire(stiffness=k))
+    kw = {n: v for n, v in params.items() if v is not None}
+    if wire == "none":
+        kw.pop("wire_prestrain", None)
+    res = not_interrupted(cylinder_triaxial(
+        scale, wire=law is not None, wire_law=law, seed=seed,
+        history=os.path.join(runs_dir, f"{name}.h5"), progress=False, **kw),
+        name, dict(seed=seed, **params))
+    eps = np.asarray(res.axial_strain)
+    out = dict(records=int(eps.size), final_strain=float(eps[-1]) if eps.size else math.nan)
+    q, q_sand, q_wire = res.deviator, _q_parts(res.sand_stress), _q_parts(res.wire_stress)
+    for e in STRAINS:
+        tag = f"{round(e * 100):d}"
+        ok = eps.size and eps[-1] >= e - 1e-9
+        for key, arr in (("q", q), ("q_sand", q_sand), ("q_wire", q_wire)):
+            out[f"{key}_{tag}"] = float(np.interp(e, eps, arr)) if ok else math.nan
+    start = res.extra.get("start", {})
+    out.update(wire_eq_start=float(res.wire_equivalent[0]) if eps.size else math.nan,
+               mean_stress_start=float(res.mean_stress[0]) if eps.size else math.nan,
+               solid_fraction=start.get("solid_fraction", math.nan),
+               taut_share=start.get("taut_share", math.nan),
+               mean_tension=start.get("mean_tension", math.nan),
+               max_tension=start.get("max_tension", math.nan),
+               iso_reached=bool(res.params.get("iso_reached")),
+               n_sand=res.params["n_sand"], n_beads=res.params["n_beads"],
+               steps=res.convergence.get("steps"),
+               non_converged_share=res.convergence.get("share"),
+               wall_time=res.convergence.get("wall_time"))
+    dep = start.get("deposit")
+    if dep:
+        out.update(deposit_steps=dep["steps"], deposit_at_rest=bool(dep["at_rest"]),
+                   deposit_settlement=dep["settlement"])
+    fits = res.extra.get("best_fit_strain", {})
+    if "wire" in fits and "sand" in fits:
+        ew, es = fits["wire"].principal, fits["sand"].principal
+        out["sliding_gap"] = float(np.linalg.norm(ew - es) / max(np.linalg.norm(es), 1e-300))
+    return out
+
+
+def _stats(values) -> dict:
+    v = np.asarray([x for x in values if x is not None and math.isfinite(x)], float)
+    n = int(v.size)
+    mean = float(v.mean()) if n else math.nan
+    se = float(v.std(ddof=1) / math.sqrt(n)) if n > 1 else math.nan
+    return dict(n=n, mean=mean, two_se=2 * se, per_seed=[float(x) for x in v])
+
+
+def summarize(rows: list[dict]) -> dict:
+    """``rows``: (params, result) of the finished cases.  Per factor and level: Δq/q against
+    the sand run of the same seed, preparation and confinement at each strain of
+    :data:`STRAINS` (mean, two standard errors, per seed), and the means of the other
+    figures; the sand runs' own figures per preparation and confinement."""
+    by_name = {p["name"]: (p, r) for p, r in rows}
+    sand = {_sand_key(p): r for p, r in rows if p["wire"] == "none"}
+    out = {"factors": {}, "sand": {}}
+    for (seed, prep, conf), r in sorted(sand.items()):
+        s = out["sand"].setdefault(f"{prep}, {conf}", {"seeds": []})
+        s["seeds"].append(seed)
+        for key in ("q_2", "q_5", "q_10", "solid_fraction", "mean_stress_start"):
+            s.setdefault(key, []).append(r.get(key))
+    for factor, levels in FACTORS.items():
+        f = out["factors"][factor] = {}
+        for label, change in levels:
+            runs = [(p, r) for p, r in rows if p["wire"] != "none"
+                    and all(p.get(n) == v for n, v in dict(BASELINE, **change).items())]
+            if not runs:
+                continue
+            lv = f[label] = {"seeds": [p["seed"] for p, _ in runs]}
+            for e in STRAINS:
+                tag = f"{round(e * 100):d}"
+                rel = []
+                for p, r in runs:
+                    ref = sand.get(_sand_key(p))
+                    if ref is not None and ref.get(f"q_{tag}") and r.get(f"q_{tag}") is not None:
+                        rel.append(r[f"q_{tag}"] / ref[f"q_{tag}"] - 1)
+                lv[f"dq_{tag}"] = _stats(rel)
+                lv[f"q_wire_share_{tag}"] = _stats(
+                    [r.get(f"q_wire_{tag}", math.nan) / r[f"q_{tag}"] for _, r in runs
+                     if r.get(f"q_{tag}")])
+            for key in ("wire_eq_start", "taut_share", "mean_tension", "solid_fraction",
+                        "sliding_gap", "non_converged_share", "wall_time"):
+                lv[key] = _stats([r.get(key, math.nan) for _, r in runs])
+    del by_name
+    return out
+
+
+def figure(summary: dict, path, strain_tag: str = "10"):
+    """Δq/q at one strain of :data:`STRAINS` (``strain_tag``: "2", "5" or "10" %) against
+    each factor's levels, with two standard errors, one row per level."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    rows = [(factor, label, lv) for factor, levels in summary["factors"].items()
+            for label, lv in levels.items()]
+    fig, ax = plt.subplots(figsize=(8, 0.42 * len(rows) + 1.6))
+    y = np.arange(len(rows))[::-1]
+    for yi, (factor, label, lv) in zip(y, rows):
+        st = lv[f"dq_{strain_tag}"]
+        if not st["n"]:
+            continue
+        ax.errorbar(100 * st["mean"], yi, xerr=100 * st["two_se"] if st["n"] > 1 else None,
+                    fmt="o", color="C0", capsize=3)
+        ax.plot(100 * np.asarray(st["per_seed"]), np.full(st["n"], yi), "x", color="0.5",
+                ms=4)
+    ax.axvline(0, color="k", lw=0.8)
+    for val, txt in ((7, "paper, k = 0.2 N: +7 %"), (23, "paper, rigid: +23 %")):
+        ax.axvline(val, color="C3", lw=0.8, ls="--")
+        ax.text(val, y.max() + 0.6, txt, color="C3", fontsize=7, ha="center")
+    ax.set_yticks(y, [f"{factor}: {label}" for factor, label, _ in rows], fontsize=8)
+    ax.set_xlabel(f"Δq/q at {strain_tag} % axial strain, against the sand of the same seed [%]"
+                  " (mean ± 2 SE; × per seed)")
+    ax.set_ylim(-0.8, len(rows) - 0.2 + 0.8)
+    fig.tight_layout()
+    fig.savefig(path, dpi=150)
+    plt.close(fig)
+    return path

@@ -21,6 +21,7 @@ from __future__ import annotations
 import argparse
 import os
 import sys
+from pathlib import Path
 
 sys.path.insert(0, os.path.join(os.path.dirname(__file__), ".."))
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
@@ -88,6 +89,11 @@ def main(argv=None):
                summary=summary)
     path = record.write("reinforcement", out, quick=a.quick)
     print(path)
+    from workbench.reinforcement import markdown_table
+
+    md = markdown_table(summary)
+    Path(str(path).replace(".json", ".md")).write_text(md)
+    print(md)
     png = figure(summary, str(path).replace(".json", ".png"))
     if a.figure:
         figure(summary, a.figure)

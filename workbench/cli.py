@@ -162,7 +162,8 @@ def validate_config(raw: dict, path="run file") -> tuple[RunConfig, BaseModel]:
             params = _PARAMS[test](**raw.get("parameters", {}))
         except ValidationError as e:
             problems += _format_errors(e, _PARAMS[test], "parameters.")
-    if (params is not None and getattr(params, "sample", None) is not None
+    if (params is not None and test != "gravity_deposit"    # (its sample is a name)
+            and getattr(params, "sample", None) is not None
             and isinstance(raw.get("wire"), dict) and raw["wire"].get("law", "elastic") != "none"):
         problems.append("  wire: a [wire] law with parameters.sample: the start state's links "
                         "keep their own law and reference lengths; leave [wire] out (or "
@@ -210,7 +211,8 @@ def run_config(cfg: RunConfig, params: BaseModel, out: Path, progress=True):
     kw = params.model_dump(exclude_none=True)
     law = cfg.wire.wire_law()
     kw["wire"] = law is not None
-    if kw.get("sample") is not None and "wire" not in cfg.model_fields_set:
+    if (cfg.test != "gravity_deposit" and kw.get("sample") is not None
+            and "wire" not in cfg.model_fields_set):
         kw["wire"], law = True, None        # the start state's own wire, if it has one
     if law is not None:
         kw["wire_law"] = law

@@ -19,7 +19,8 @@ import os
 
 import numpy as np
 
-__all__ = ["BASELINE", "FACTORS", "STRAINS", "cases", "case", "summarize", "figure"]
+__all__ = ["BASELINE", "FACTORS", "STRAINS", "cases", "case", "summarize", "figure",
+           "markdown_table"]
 
 #: The strains at which q is compared [-].
 STRAINS = (0.02, 0.05, 0.10)
@@ -117,13 +118,7 @@ def case(*, name, wire, k, seed, runs_dir, scale=1.0, **params) -> dict:
         history=os.path.join(runs_dir, f"{name}.h5"), progress=False, **kw),
         name, dict(seed=seed, **params))
     eps = np.asarray(res.axial_strain)
-    out = dict(records=int(eps.size), final_strain=float(eps[-1]) if eps.size else math.nan)
-    q, q_sand, q_wire = res.deviator, _q_parts(res.sand_stress), _q_parts(res.wire_stress)
-    for e in STRAINS:
-        tag = f"{round(e * 100):d}"
-        ok = eps.size and eps[-1] >= e - 1e-9
-        for key, arr in (("q", q), ("q_sand", q_sand), ("q_wire", q_wire)):
-            out[f"{key}_{tag}"] = float(np.interp(e, eps, arr)) if ok else math.nan
+    out = _q_at(eps, res.deviator, res.sand_stress, res.wire_stress)
     start = res.extra.get("start", {})
     out.update(wire_eq_start=float(res.wire_equivalent[0]) if eps.size else math.nan,
                mean_stress_start=float(res.mean_stress[0]) if eps.size else math.nan,
@@ -144,6 +139,48 @@ def case(*, name, wire, k, seed, runs_dir, scale=1.0, **params) -> dict:
     if "wire" in fits and "sand" in fits:
         ew, es = fits["wire"].principal, fits["sand"].principal
         out["sliding_gap"] = float(np.linalg.norm(ew - es) / max(np.linalg.norm(es), 1e-300))
+    return out
+
+
+#: A run's last record counts as reaching a strain of :data:`STRAINS` this close below it
+#: [-] (the loading's last step ends within one step of the target: 0.09998 for 0.1).
+STRAIN_SLACK = 1e-3
+
+
+def _q_at(eps, q, sand_stress, wire_stress) -> dict:
+    """q and its sand and wire parts [Pa] at each strain of :data:`STRAINS` (nan beyond the
+    run's last strain), the record count and the final strain."""
+    eps = np.asarray(eps)
+    out = dict(records=int(eps.size), final_strain=float(eps[-1]) if eps.size else math.nan)
+    parts = (("q", np.asarray(q)), ("q_sand", _q_parts(sand_stress)),
+             ("q_wire", _q_parts(wire_stress)))
+    for e in STRAINS:
+        tag = f"{round(e * 100):d}"
+        ok = eps.size and eps[-1] >= e - STRAIN_SLACK
+        for key, arr in parts:
+            out[f"{key}_{tag}"] = float(np.interp(e, eps, arr)) if ok else math.nan
+    return out
+
+
+def rescore(name, result, runs_dir) -> dict:
+    """``result`` with its q figures recomputed from the run's history ``runs_dir/name.h5``
+    (the loading's records, from the last isotropic one), as :func:`case` computes them
+    now; ``result`` as it is when the history is not there."""
+    from engine.io import read_history
+
+    path = os.path.join(runs_dir, f"{name}.h5")
+    if not os.path.isfile(path):
+        return dict(result)
+    h = read_history(path, frames=False)
+    st = np.asarray(h.extra["stage"])
+    first = int(np.flatnonzero(st == 1)[0])
+    sel = slice(first - 1, None)
+    H = np.asarray(h.extra["height"])[sel]
+    stress = np.asarray(h.extra["stress"])[sel]
+    q = -stress[:, 2, 2] + (stress[:, 0, 0] + stress[:, 1, 1]) / 2
+    out = dict(result)
+    out.update(_q_at(1 - H / H[0], q, np.asarray(h.extra["sand_stress"])[sel],
+                     np.asarray(h.extra["wire_stress"])[sel]), rescored=True)
     return out
 
 
@@ -226,3 +263,40 @@ def figure(summary: dict, path, strain_tag: str = "10"):
     fig.savefig(path, dpi=150)
     plt.close(fig)
     return path
+
+
+def _pm(st, scale=100.0, fmt="+.1f"):
+    if not st["n"]:
+        return "—"
+    if st["n"] < 2:
+        return f"{scale * st['mean']:{fmt}} (1 seed)"
+    return f"{scale * st['mean']:{fmt}} ± {scale * st['two_se']:.1f}"
+
+
+def markdown_table(summary: dict) -> str:
+    """The summary as a Markdown table: per factor and level, the seeds, Δq/q [%] at each
+    strain of :data:`STRAINS` (mean ± 2 SE), the wire's share of q at 10 %, the wire's
+    equivalent stress [Pa], share of taut links and mean tension [mN] at the start of the
+    loading, the solid fraction then, and the wire–sand sliding gap; then the sand runs."""
+    head = ("| factor | level | seeds | Δq/q 2 % | Δq/q 5 % | Δq/q 10 % | q_wire/q 10 % [%] "
+            "| σ_w,eq start [Pa] | taut links | mean T [mN] | solid fraction | sliding gap |")
+    lines = [head, "|" + "---|" * 12]
+    for factor, levels in summary["factors"].items():
+        for label, lv in levels.items():
+            lines.append("| " + " | ".join([
+                factor, label, ",".join(map(str, lv["seeds"])),
+                _pm(lv["dq_2"]), _pm(lv["dq_5"]), _pm(lv["dq_10"]),
+                _pm(lv["q_wire_share_10"], fmt=".2f"),
+                _pm(lv["wire_eq_start"], 1.0, ".1f"), _pm(lv["taut_share"], 1.0, ".2f"),
+                _pm(lv["mean_tension"], 1e3, ".2f"), _pm(lv["solid_fraction"], 1.0, ".3f"),
+                _pm(lv["sliding_gap"], 1.0, ".2f")]) + " |")
+    lines += ["", "| sand runs | seeds | q 2 % [kPa] | q 5 % [kPa] | q 10 % [kPa] | solid fraction |",
+              "|---|---|---|---|---|---|"]
+    for key, s in summary["sand"].items():
+        def cell(name, scale, fmt):
+            v = [x for x in s.get(name, []) if x is not None and math.isfinite(x)]
+            return ", ".join(f"{scale * x:{fmt}}" for x in v) or "—"
+        lines.append(f"| {key} | {','.join(map(str, s['seeds']))} | {cell('q_2', 1e-3, '.2f')} "
+                     f"| {cell('q_5', 1e-3, '.2f')} | {cell('q_10', 1e-3, '.2f')} "
+                     f"| {cell('solid_fraction', 1.0, '.3f')} |")
+    return "\n".join(lines) + "\n"

@@ -420,3 +420,37 @@ def test_a_grid_names_every_wire_law_and_its_parameters(tmp_path, monkeypatch):
         with pytest.raises(RuntimeError, match="recorded"):
             EXPERIMENTS["gravity_deposit"](wire=wire, history_dir=str(tmp_path), **kw)
         assert got[-1]["wire"] is True and got[-1]["wire_law"] == want, wire
+
+
+def test_a_grid_prepares_and_starts_the_triaxial_tests(tmp_path, monkeypatch):
+    """``preparation``, ``wire_density``, ``wire_mode``, ``wire_prestrain`` and
+    ``confinement`` are sweep parameters like the others (checked before any case runs); a
+    case with a ``sample`` path and the default wire lets the state keep its own law."""
+    from engine import experiments
+    from engine.sweep import EXPERIMENTS, _check_paper_cases
+
+    _check_paper_cases("cylinder_triaxial", [dict(preparation="paper", wire_density=5e5,
+                                                  wire_mode="orthotropic", wire_prestrain=0.01,
+                                                  confinement="layer_crown")], {})
+    for case, says in ((dict(preparation="wet"), r"preparation = 'wet': must be one of "
+                                                 r"'geometric', 'paper'"),
+                       (dict(confinement="rubber"), "confinement = 'rubber'"),
+                       (dict(wire_mode="spiral"), "wire_mode = 'spiral'"),
+                       (dict(wire_prestrain=-0.1), r"wire_prestrain = -0.1: must be a number "
+                                                   r"in \[0, 1\]")):
+        with pytest.raises(ValueError, match=says):
+            _check_paper_cases("cylinder_triaxial", [case], {})
+    got = []
+
+    def fake(scale=0.05, **kw):
+        got.append(kw)
+        raise RuntimeError("recorded")
+
+    monkeypatch.setattr(experiments, "cylinder_triaxial", fake)
+    with pytest.raises(RuntimeError):
+        EXPERIMENTS["cylinder_triaxial"](sample="out/d.h5", history_dir=str(tmp_path))
+    assert got[-1]["wire"] is True and "wire_law" not in got[-1]
+    with pytest.raises(RuntimeError):
+        EXPERIMENTS["cylinder_triaxial"](sample="out/d.h5", wire="rigid",
+                                         history_dir=str(tmp_path))
+    assert got[-1]["wire_law"] == laws.RigidWire()      # refused by the test: named

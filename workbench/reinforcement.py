@@ -31,23 +31,24 @@ BASELINE = dict(wire="elastic", k=1.0, preparation="paper", wire_density=None,
                 confinement="free_surface")
 
 #: factor -> [(level label, the parameters that differ from the baseline)], in the order the
-#: study runs them (the law and preparation first: what Fig. 14 and Table 2 are about).
+#: study runs them: the law with the paper's preparation (Fig. 14, Table 2), then the
+#: positive controls of issue 30 §3, then the law with the geometric preparation.
 FACTORS = {
     "law, paper preparation": [("rigid", dict(wire="rigid", k=None)), ("k = 0.2 N", dict(k=0.2)),
                                ("k = 1 N", {}), ("k = 10 N", dict(k=10.0))],
+    "wire–sand friction": [("μ_wire = 0.5 (the sand's)", dict(mu_wire=0.5)),
+                           ("μ_wire = 0.8", dict(mu_wire=0.8))],
+    "prestrain at the loading": [("ε₀ = 1 %", dict(wire_prestrain=0.01)),
+                                 ("ε₀ = 5 %", dict(wire_prestrain=0.05))],
+    "wire content": [("2 × (500 km/m³)", dict(wire_density=500e3)),
+                     ("4 × (1 000 km/m³)", dict(wire_density=1000e3))],
+    "orthotropic wire (Eq. 17)": [("orthotropic", dict(wire_mode="orthotropic"))],
+    "layer-crown confinement": [("k = 1 N", dict(confinement="layer_crown"))],
     "law, geometric preparation": [
         ("rigid", dict(wire="rigid", k=None, preparation="geometric")),
         ("k = 0.2 N", dict(k=0.2, preparation="geometric")),
         ("k = 1 N", dict(preparation="geometric")),
         ("k = 10 N", dict(k=10.0, preparation="geometric"))],
-    "wire content": [("2 × (500 km/m³)", dict(wire_density=500e3)),
-                     ("4 × (1 000 km/m³)", dict(wire_density=1000e3))],
-    "orthotropic wire (Eq. 17)": [("orthotropic", dict(wire_mode="orthotropic"))],
-    "wire–sand friction": [("μ_wire = 0.5 (the sand's)", dict(mu_wire=0.5)),
-                           ("μ_wire = 0.8", dict(mu_wire=0.8))],
-    "prestrain at the loading": [("ε₀ = 1 %", dict(wire_prestrain=0.01)),
-                                 ("ε₀ = 5 %", dict(wire_prestrain=0.05))],
-    "layer-crown confinement": [("k = 1 N", dict(confinement="layer_crown"))],
 }
 
 
@@ -231,9 +232,10 @@ def summarize(rows: list[dict]) -> dict:
     return out
 
 
-def figure(summary: dict, path, strain_tag: str = "10"):
-    """Δq/q at one strain of :data:`STRAINS` (``strain_tag``: "2", "5" or "10" %) against
-    each factor's levels, with two standard errors, one row per level."""
+def figure(summary: dict, path, tags=("2", "5", "10")):
+    """Δq/q at the strains of :data:`STRAINS` (``tags``: their values in %, one panel each)
+    against each factor's levels: the mean over seeds with two standard errors and each
+    seed; the paper's Fig. 14 gains as dashed lines."""
     import matplotlib
 
     matplotlib.use("Agg")
@@ -241,24 +243,31 @@ def figure(summary: dict, path, strain_tag: str = "10"):
 
     rows = [(factor, label, lv) for factor, levels in summary["factors"].items()
             for label, lv in levels.items()]
-    fig, ax = plt.subplots(figsize=(8, 0.42 * len(rows) + 1.6))
+    fig, axes = plt.subplots(1, len(tags), figsize=(4.2 + 2.6 * len(tags),
+                                                    0.36 * len(rows) + 1.7),
+                             sharey=True, squeeze=False)
     y = np.arange(len(rows))[::-1]
-    for yi, (factor, label, lv) in zip(y, rows):
-        st = lv[f"dq_{strain_tag}"]
-        if not st["n"]:
-            continue
-        ax.errorbar(100 * st["mean"], yi, xerr=100 * st["two_se"] if st["n"] > 1 else None,
-                    fmt="o", color="C0", capsize=3)
-        ax.plot(100 * np.asarray(st["per_seed"]), np.full(st["n"], yi), "x", color="0.5",
-                ms=4)
-    ax.axvline(0, color="k", lw=0.8)
-    for val, txt in ((7, "paper, k = 0.2 N: +7 %"), (23, "paper, rigid: +23 %")):
-        ax.axvline(val, color="C3", lw=0.8, ls="--")
-        ax.text(val, y.max() + 0.6, txt, color="C3", fontsize=7, ha="center")
-    ax.set_yticks(y, [f"{factor}: {label}" for factor, label, _ in rows], fontsize=8)
-    ax.set_xlabel(f"Δq/q at {strain_tag} % axial strain, against the sand of the same seed [%]"
-                  " (mean ± 2 SE; × per seed)")
-    ax.set_ylim(-0.8, len(rows) - 0.2 + 0.8)
+    for ax, tag in zip(axes[0], tags):
+        for yi, (factor, label, lv) in zip(y, rows):
+            st = lv[f"dq_{tag}"]
+            if not st["n"]:
+                continue
+            ax.errorbar(100 * st["mean"], yi, xerr=100 * st["two_se"] if st["n"] > 1 else None,
+                        fmt="o", color="C0", capsize=3, ms=5)
+            ax.plot(100 * np.asarray(st["per_seed"]), np.full(st["n"], yi), "x", color="0.45",
+                    ms=4)
+        ax.axvline(0, color="k", lw=0.8)
+        for val in (7, 23):
+            ax.axvline(val, color="C3", lw=0.8, ls="--")
+        ax.set_title(f"at {tag} % axial strain", fontsize=9)
+        ax.set_xlabel("Δq/q against the sand [%]", fontsize=8)
+        ax.tick_params(labelsize=8)
+        ax.grid(axis="x", lw=0.3, color="0.8")
+    axes[0][0].set_yticks(y, [f"{factor}: {label}" for factor, label, _ in rows], fontsize=8)
+    axes[0][0].set_ylim(-0.8, len(rows) - 0.2)
+    fig.suptitle("Cylinder triaxial (paper size): q of the wire runs against the sand of the "
+                 "same seed — mean ± 2 SE (o), each seed (×); dashed: the paper's +7 % "
+                 "(k = 0.2 N) and +23 % (rigid)", fontsize=8)
     fig.tight_layout()
     fig.savefig(path, dpi=150)
     plt.close(fig)

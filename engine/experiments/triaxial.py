@@ -179,7 +179,8 @@ def cylinder_triaxial(scale: float = 0.05, *, sample=None, preparation: str = "g
     Raises ValueError for bad input (naming it), ConvergenceError when more than
     ``max_nonconverged`` of the steps hit ``max_iter``.
     """
-    check_args("cylinder_triaxial", locals())
+    args = dict(locals())
+    check_args("cylinder_triaxial", args)
     scale = check_scale(scale)
     anderson, hot_sweeps = solver_choice(anderson, hot_sweeps)
     p = float(pressure)
@@ -189,18 +190,11 @@ def cylinder_triaxial(scale: float = 0.05, *, sample=None, preparation: str = "g
                                    "frictionless grains out)")
     law = wire_law_or_default(wire_law) if wire else None
     _check_prestrain("cylinder_triaxial", wire_prestrain, neighbour_contact)
-    st, deposit = _prepared(
-        "cylinder_triaxial", Cylinder, sample, preparation,
-        lambda: cylinder_sample(scale, wire=wire, wire_density=wire_density,
-                                wire_mode=wire_mode, seed=seed),
-        wire=wire, wire_law=wire_law, law=law, wire_density=wire_density,
-        wire_mode=wire_mode, neighbour_contact=neighbour_contact, history=history,
-        progress=progress, deposit=dict(
-            dt=dt, theta=theta, tol=tol, max_iter=max_iter, relax=relax, anderson=anderson,
-            threads=threads, hot_sweeps=hot_sweeps, mu=mu, mu_wall=mu_wall, mu_wire=mu_wire,
-            steps=deposit_steps, max_nonconverged=max_nonconverged, seed=seed))
+    st, deposit, law = _prepared(
+        "cylinder_triaxial", Cylinder, lambda: cylinder_sample(
+            scale, wire=wire, wire_density=wire_density, wire_mode=wire_mode, seed=seed),
+        dict(args, anderson=anderson, hot_sweeps=hot_sweeps), law)
     wire = st.has_wire
-    law = st.wire_law(law) if wire else None
     axis = st.axis()
     across = 2 * st.outer_radius(axis) / (2 * float(st.sand_radii.mean()))
     if across < 5.5:
@@ -356,20 +350,28 @@ def cylinder_triaxial(scale: float = 0.05, *, sample=None, preparation: str = "g
     return finish(res, stages, max_nonconverged)
 
 
-def _prepared(test, shape, sample, preparation, build, *, wire, wire_law, law, wire_density,
-              wire_mode, neighbour_contact, history, progress, deposit):
+#: The test's arguments the paper preparation's deposit takes as they are.
+_DEPOSIT_ARGS = ("dt", "theta", "tol", "max_iter", "relax", "anderson", "threads",
+                 "hot_sweeps", "mu", "mu_wall", "mu_wire", "max_nonconverged", "seed")
+
+
+def _prepared(test, shape, build, a, law):
     """(the :class:`~engine.experiments.start.Start` of a triaxial test, the deposit's
-    result or None): ``sample`` or ``build()``'s sample, prepared as ``preparation`` says
-    (:mod:`engine.experiments.start`); ``deposit``: the keywords of the paper
-    preparation's :func:`~engine.experiments.gravity_deposit`."""
-    preparation = check_preparation(preparation)
+    result or None, the wire's law): the test's ``sample`` or ``build()``'s sample,
+    prepared as its ``preparation`` says (:mod:`engine.experiments.start`; the paper
+    preparation's :func:`~engine.experiments.gravity_deposit` takes the test's solver
+    options, friction and seed, and ``deposit_steps``).  ``a``: the test's arguments (its
+    ``locals()`` on entry, the solver choice resolved); ``law``: the test's wire law."""
+    sample, wire, wire_density, wire_mode = (a["sample"], a["wire"], a["wire_density"],
+                                             a["wire_mode"])
+    preparation = check_preparation(a["preparation"])
     if sample is not None and (wire_density is not None or wire_mode != "isotropic"):
         raise ValueError(f"{test}: wire_density and wire_mode build the test's own sample; "
                          f"with sample= given, build the sample with them "
                          f"(engine.prep.{shape.__name__.lower()}_sample)")
-    st = start_of(test, shape, sample, build, wire=wire, wire_law=wire_law)
+    st = start_of(test, shape, sample, build, wire=wire, wire_law=a["wire_law"])
     if preparation == "geometric":
-        return st, None
+        return st, None, st.wire_law(law) if st.has_wire else None
     if st.sample is None:
         raise ValueError(f"{test}: preparation = 'paper' relaxes a geometric sample in its "
                          f"mould first; the sample given is {st.source}, an end state "
@@ -377,9 +379,11 @@ def _prepared(test, shape, sample, preparation, build, *, wire, wire_law, law, w
     from .deposit import gravity_deposit
 
     dep = gravity_deposit(sample=st.sample, wire=st.has_wire, wire_law=law,
-                          neighbour_contact=neighbour_contact,
-                          history=deposit_history(history), progress=progress, **deposit)
-    return start_of(test, shape, dep.history, None, wire=wire), dep
+                          neighbour_contact=a["neighbour_contact"],
+                          history=deposit_history(a["history"]), progress=a["progress"],
+                          steps=a["deposit_steps"], **{k: a[k] for k in _DEPOSIT_ARGS})
+    st = start_of(test, shape, dep.history, None, wire=wire)
+    return st, dep, st.wire_law(law) if st.has_wire else None
 
 
 def deposit_history(history) -> str:
@@ -592,7 +596,8 @@ def box_triaxial(scale: float = 0.05, *, sample=None, preparation: str = "geomet
     directions (Fig. 11), and the best-fit strains (Eq. 19) of the sand, the wire and all
     the particles (Fig. 12).
     """
-    check_args("box_triaxial", locals())
+    args = dict(locals())
+    check_args("box_triaxial", args)
     scale = check_scale(scale)
     anderson, hot_sweeps = solver_choice(anderson, hot_sweeps)
     p = float(pressure)
@@ -603,18 +608,12 @@ def box_triaxial(scale: float = 0.05, *, sample=None, preparation: str = "geomet
     if sample is not None and bead_radius is not None:
         raise ValueError("box_triaxial: bead_radius builds the test's own sample; with sample= "
                          "given, build the sample with it (engine.prep.box_sample)")
-    st, deposit = _prepared(
-        "box_triaxial", Box, sample, preparation,
-        lambda: box_sample(scale, wire=wire, wire_density=wire_density, wire_mode=wire_mode,
-                           bead_radius=bead_radius, seed=seed),
-        wire=wire, wire_law=wire_law, law=law, wire_density=wire_density,
-        wire_mode=wire_mode, neighbour_contact=neighbour_contact, history=history,
-        progress=progress, deposit=dict(
-            dt=dt, theta=theta, tol=tol, max_iter=max_iter, relax=relax, anderson=anderson,
-            threads=threads, hot_sweeps=hot_sweeps, mu=mu, mu_wall=mu_wall, mu_wire=mu_wire,
-            steps=deposit_steps, max_nonconverged=max_nonconverged, seed=seed))
+    st, deposit, law = _prepared(
+        "box_triaxial", Box, lambda: box_sample(
+            scale, wire=wire, wire_density=wire_density, wire_mode=wire_mode,
+            bead_radius=bead_radius, seed=seed),
+        dict(args, anderson=anderson, hot_sweeps=hot_sweeps), law)
     wire = st.has_wire
-    law = st.wire_law(law) if wire else None
     box = st.box()
     lo, hi = np.array(box.lo), np.array(box.hi)
     sc = Scene(gravity=(0.0, 0.0, -G))

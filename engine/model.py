@@ -138,14 +138,14 @@ def solver_conflict(hot_sweeps, anderson, relax, threads, chain_solve=False) -> 
     chain solve on the unmixed serial sweep (hot re-sweeps allowed).  Shared by :class:`Options` and the ``nscd
     run`` files, which check before anything runs."""
     if chain_solve and (anderson > 0 or threads > 1):
-        return (f"chain_solve=True works with the unmixed serial sweep only (for now; the hot "
+        return (f"chain_solve = True works with the unmixed serial sweep only (for now; the hot "
                 f"re-sweeps too): set anderson=0 (got {anderson}) and threads=1 (got "
                 f"{threads}), or chain_solve=False")
     if hot_sweeps and anderson > 0:
-        return (f"hot_sweeps={hot_sweeps} works with the unmixed sweep only: set anderson=0 "
+        return (f"hot_sweeps = {hot_sweeps} works with the unmixed sweep only: set anderson=0 "
                 f"(got {anderson}), or hot_sweeps=0")
     if relax > 1.0 and (anderson > 0 or threads > 1):
-        return (f"relax={relax:g} > 1 (over-relaxation) works with the unmixed sweep on one "
+        return (f"relax = {relax:g} > 1 (over-relaxation) works with the unmixed sweep on one "
                 f"thread only: set anderson=0 (got {anderson}) and threads=1 (got {threads}), "
                 f"or relax <= 1")
     return None

@@ -18,7 +18,7 @@ def test_hot_sweeps_is_validated(bad):
 
 
 def test_hot_sweeps_refuse_mixing():
-    with pytest.raises(ValueError, match="hot_sweeps=3 works with the unmixed sweep only"):
+    with pytest.raises(ValueError, match="hot_sweeps = 3 works with the unmixed sweep only"):
         Options(dt=1e-3, alert=0.0, skin=1e-3, hot_sweeps=3, anderson=4, threads=2)
     assert Options(dt=1e-3, alert=0.0, skin=1e-3, hot_sweeps=0, anderson=4).hot_sweeps == 0
     assert Options(dt=1e-3, alert=0.0, skin=1e-3, hot_sweeps=3, threads=2).threads == 2

@@ -102,7 +102,7 @@ BAD = {
     "max_iter zero": (_compile(max_iter=0), r"max_iter = 0: must be an integer in \[1, 1000000000\]$"),
     "relax zero": (_compile(relax=0.0), r"relax = 0.0: must be a number in \(0, 2\)$"),
     "relax 2": (_compile(relax=2.0), r"relax = 2.0: must be a number in \(0, 2\)$"),
-    "relax over with anderson": (_compile(relax=1.4, anderson=4), r"relax=1.4 > 1 \(over-relaxation\) works with the unmixed sweep on one thread only"),
+    "relax over with anderson": (_compile(relax=1.4, anderson=4), r"relax = 1.4 > 1 \(over-relaxation\) works with the unmixed sweep on one thread only"),
     "dt string": (_compile(dt="1e-5"), r"^Options: dt = '1e-5': must be a finite number > 0, not a string$"),
     "max_iter string": (_compile(max_iter="10"), r"max_iter = '10': must be an integer in \[1, 1000000000\], not a string$"),
     "mu string": (lambda: laws.Coulomb(mu="0.3"), r"^Coulomb: mu = '0.3': must be a number >= 0, not a string$"),

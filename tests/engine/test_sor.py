@@ -74,7 +74,7 @@ def test_relax_range_and_mixing():
         with pytest.raises(ValueError, match=r"relax = .*: must be a number in \(0, 2\)"):
             Options(dt=1e-3, alert=0.0, skin=1e-3, relax=bad)
     for other in (dict(anderson=4), dict(threads=2)):
-        with pytest.raises(ValueError, match=r"relax=1.5 > 1 \(over-relaxation\) works with "
+        with pytest.raises(ValueError, match=r"relax = 1.5 > 1 \(over-relaxation\) works with "
                                              r"the unmixed sweep on one thread only"):
             Options(dt=1e-3, alert=0.0, skin=1e-3, relax=1.5, **other)
     assert Options(dt=1e-3, alert=0.0, skin=1e-3, relax=0.8, anderson=4, threads=2).relax == 0.8

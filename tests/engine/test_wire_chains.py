@@ -139,7 +139,7 @@ def test_chain_solve_refuses_the_variants_it_does_not_run_with():
     s, _ = _wire_scene([[0, 0, 0], [0, 0, -1e-2]], laws.RigidWire(), fixed=[0])
     for kw, says in ((dict(anderson=4), r"anderson=0 \(got 4\)"),
                      (dict(threads=2), r"threads=1 \(got 2\)")):
-        with pytest.raises(ValueError, match=r"chain_solve=True works with the unmixed "
+        with pytest.raises(ValueError, match=r"chain_solve = True works with the unmixed "
                                              r"serial sweep only"):
             s.compile(dt=1e-4, chain_solve=True, **kw)
         with pytest.raises(ValueError, match=says):

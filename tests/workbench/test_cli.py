@@ -59,7 +59,7 @@ def test_info_render_export(demo, tmp_path, capsys):
      "3 problem(s) (box_triaxial)\n  sede = 1: unknown field (the fields are: test, scale, seed"),
     ('test = = 1', "not valid TOML"),
     ('test = "slope_deposit"\n[parameters]\nanderson = 4\nhot_sweeps = 2\n',
-     "hot_sweeps=2 works with the unmixed sweep only: set anderson=0 (got 4)"),
+     "hot_sweeps = 2 works with the unmixed sweep only: set anderson=0 (got 4)"),
 ])
 def test_bad_config_gives_one_clear_message(tmp_path, capsys, toml, expected):
     p = tmp_path / "c.toml"

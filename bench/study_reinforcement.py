@@ -47,7 +47,7 @@ def main(argv=None):
                     help="scale 0.05, 2 %% strain, seed 0, the law factors only")
     a = ap.parse_args(argv)
     from engine.sweep import sweep
-    from workbench.reinforcement import cases, figure, summarize
+    from workbench.reinforcement import cases, figure, rescore, summarize
 
     scale, strain = (0.05, 0.02) if a.quick else (a.scale, 0.1)
     seeds = [0] if a.quick else [int(s) for s in a.seeds.split(",")]
@@ -65,11 +65,15 @@ def main(argv=None):
     busy = record.Busy()
     from workbench.reinforcement import case
 
+    runs_dir = os.path.join(a.runs, f"scale{scale:g}")
     table = sweep(case, todo, None if a.workers > 1 else "serial", out=table_path,
-                  fixed={"runs_dir": os.path.join(a.runs, f"scale{scale:g}")},
-                  n_workers=a.workers, hdf5=False, progress=True)
+                  fixed={"runs_dir": runs_dir}, n_workers=a.workers, hdf5=False,
+                  progress=True)
     print(table)
-    rows = [(r["params"], r["result"]) for r in table.done]
+    # q at each strain recomputed from the histories where they are here (cases run before
+    # the strain slack of workbench.reinforcement.STRAIN_SLACK missed q at 10 %)
+    rows = [(r["params"], rescore(r["params"]["name"], r["result"], runs_dir))
+            for r in table.done]
     summary = summarize(rows)
     for factor, levels in summary["factors"].items():
         for label, lv in levels.items():
@@ -86,7 +90,7 @@ def main(argv=None):
                params=dict(scale=scale, axial_strain=strain, seeds=seeds, factors=factors,
                            workers=a.workers),
                n_done=len(table.done), failed=[r["id"] for r in table.failed],
-               summary=summary)
+               summary=summary, runs={p["name"]: r for p, r in rows})
     path = record.write("reinforcement", out, quick=a.quick)
     print(path)
     from workbench.reinforcement import markdown_table

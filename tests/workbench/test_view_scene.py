@@ -355,3 +355,31 @@ def test_glyphs_put_spheres_and_sticks_where_the_beads_and_links_are():
     assert [c[1][1] for c in out["calls"] if c[0] == "setInputData"] == [0, 1]
     fields = {f["name"] for f in out["dependencies"][0]["properties"]["fields"]}
     assert {glyphs.SCALE, glyphs.ORIENT, "value"} <= fields
+
+
+def test_a_translucent_maps_colour_bar_gets_its_range_in_the_browser():
+    """What vtk.js receives of the toroidal map's lookup table carries its mapping range (the
+    map's colour limits): vtk.js keeps a table's default 0-255 until a mapper colours through
+    it, which the 60 %-opaque map had not done when its bar was drawn (the client view's
+    bar read 0-255 for a map of 0-411 Pa; checked in Chromium, docs/view.md)."""
+    import pyvista as pv
+    from trame_vtk.modules.vtk.serializers.synchronization_context import (
+        SynchronizationContext)
+
+    from workbench import render
+    from workbench.view import glyphs
+
+    render.headless_backend()
+    pl = pv.Plotter(off_screen=True)
+    surf = render.revolved_map(np.array([[0.0, 411.0], [50.0, 120.0]]), [0, 1e-3, 2e-3],
+                               [0, 1e-3, 2e-3], (0, 0, 0), "value")
+    actor = pl.add_mesh(surf, scalars="value", clim=(0.0, 411.0), opacity=0.6)
+    from trame_vtk.modules.vtk.serializers.registry import SERIALIZERS
+    from trame_vtk.modules.vtk.serializers.serialize import serialize
+
+    glyphs.register()
+    assert SERIALIZERS["vtkLookupTable"] is glyphs._lookup_table_serializer
+    lut = actor.GetMapper().GetLookupTable()
+    out = serialize(actor.GetMapper(), lut, "lut1", SynchronizationContext(), 1)
+    assert out["properties"]["mappingRange"] == [0.0, 411.0]
+    pl.close()

@@ -119,6 +119,19 @@ def _scalar_bar_serializer(parent, actor, actor_id, context, depth):
             "calls": [["setScalarsToColors", [wrap_id(lid)]]], "dependencies": [inst]}
 
 
+def _lookup_table_serializer(parent, lut, lut_id, context, depth):
+    """trame-vtk's lookup table, with its mapping range: vtk.js's table keeps its default
+    range, 0-255, until a mapper colours through it, which a translucent actor (the
+    toroidal map, drawn at 60 % opacity) had not done when its colour bar was laid out, so
+    the map's bar read 0-255 whatever the data."""
+    from trame_vtk.modules.vtk.serializers.initialize import lookup_table_serializer_selector
+
+    inst = lookup_table_serializer_selector(parent, lut, lut_id, context, depth)
+    if inst and "properties" in inst and hasattr(lut, "GetRange"):
+        inst["properties"]["mappingRange"] = list(lut.GetRange())
+    return inst
+
+
 def register() -> None:
     """Teach trame-vtk's serializer VTK's glyph mapper, and colour bars as VTK lays them
     out.  trame-vtk puts its own serializers back when its protocol starts (its colour
@@ -131,6 +144,7 @@ def register() -> None:
         register_js_class(cls, "vtkGlyph3DMapper")
     register_instance_serializer("vtkGlyph3DMapper", _glyph_serializer)
     register_instance_serializer("vtkScalarBarActor", _scalar_bar_serializer)
+    register_instance_serializer("vtkLookupTable", _lookup_table_serializer)
 
 
 def _glyph_actor(pl, pts, source, name: str, scalars, kw, *, by_components=False):

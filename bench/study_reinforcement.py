@@ -43,6 +43,9 @@ def main(argv=None):
     ap.add_argument("--runs", default="out/reinforcement_runs",
                     help="where the cases' histories go (not committed)")
     ap.add_argument("--figure", default=None, help="also write the Δq/q figure here")
+    ap.add_argument("--summary-only", action="store_true",
+                    help="no run: the summary of the cases the table holds (while a sweep "
+                         "writes it, or after)")
     ap.add_argument("--quick", action="store_true",
                     help="scale 0.05, 2 %% strain, seed 0, the law factors only")
     a = ap.parse_args(argv)
@@ -66,9 +69,15 @@ def main(argv=None):
     from workbench.reinforcement import case
 
     runs_dir = os.path.join(a.runs, f"scale{scale:g}")
-    table = sweep(case, todo, None if a.workers > 1 else "serial", out=table_path,
-                  fixed={"runs_dir": runs_dir}, n_workers=a.workers, hdf5=False,
-                  progress=True)
+    if a.summary_only:
+        from engine.sweep import load_table
+
+        table = load_table(table_path)
+        table.rows = [r for r in table.rows if r["params"] in todo]
+    else:
+        table = sweep(case, todo, None if a.workers > 1 else "serial", out=table_path,
+                      fixed={"runs_dir": runs_dir}, n_workers=a.workers, hdf5=False,
+                      progress=True)
     print(table)
     # q at each strain recomputed from the histories where they are here (cases run before
     # the strain slack of workbench.reinforcement.STRAIN_SLACK missed q at 10 %)
@@ -88,7 +97,7 @@ def main(argv=None):
     out = dict(benchmark="reinforcement", machine=record.machine(), busy=busy.finish(),
                git=record.git_commit(), table=os.path.relpath(table_path),
                params=dict(scale=scale, axial_strain=strain, seeds=seeds, factors=factors,
-                           workers=a.workers),
+                           workers=a.workers, summary_only=a.summary_only),
                n_done=len(table.done), failed=[r["id"] for r in table.failed],
                summary=summary, runs={p["name"]: r for p, r in rows})
     path = record.write("reinforcement", out, quick=a.quick)

@@ -149,12 +149,18 @@ STRAIN_SLACK = 1e-3
 
 
 def _q_at(eps, q, sand_stress, wire_stress) -> dict:
-    """q and its sand and wire parts [Pa] at each strain of :data:`STRAINS` (nan beyond the
-    run's last strain), the record count and the final strain."""
+    """q, its sand and wire parts, the wire's equivalent stress ‖dev σ_w‖ (Fig. 15) and its
+    mean stress tr σ_w / 3 (tension positive: the preload, which ‖dev σ_w‖ misses when it
+    is isotropic) [Pa] at each strain of :data:`STRAINS` (nan beyond the run's last strain), the record count
+    and the final strain."""
+    from engine.analysis import equivalent_stress
+
     eps = np.asarray(eps)
     out = dict(records=int(eps.size), final_strain=float(eps[-1]) if eps.size else math.nan)
     parts = (("q", np.asarray(q)), ("q_sand", _q_parts(sand_stress)),
-             ("q_wire", _q_parts(wire_stress)))
+             ("q_wire", _q_parts(wire_stress)),
+             ("wire_eq", np.array([equivalent_stress(t) for t in np.asarray(wire_stress)])),
+             ("wire_mean", np.trace(np.asarray(wire_stress), axis1=1, axis2=2) / 3))
     for e in STRAINS:
         tag = f"{round(e * 100):d}"
         ok = eps.size and eps[-1] >= e - STRAIN_SLACK
@@ -225,8 +231,10 @@ def summarize(rows: list[dict]) -> dict:
                 lv[f"q_wire_share_{tag}"] = _stats(
                     [r.get(f"q_wire_{tag}", math.nan) / r[f"q_{tag}"] for _, r in runs
                      if r.get(f"q_{tag}")])
-            for key in ("wire_eq_start", "taut_share", "mean_tension", "solid_fraction",
-                        "sliding_gap", "non_converged_share", "wall_time"):
+            for key in ("wire_eq_start", "wire_eq_2", "wire_eq_10", "wire_mean_2",
+                        "wire_mean_10", "taut_share",
+                        "mean_tension", "solid_fraction", "sliding_gap",
+                        "non_converged_share", "wall_time"):
                 lv[key] = _stats([r.get(key, math.nan) for _, r in runs])
     del by_name
     return out
@@ -288,15 +296,19 @@ def markdown_table(summary: dict) -> str:
     equivalent stress [Pa], share of taut links and mean tension [mN] at the start of the
     loading, the solid fraction then, and the wire–sand sliding gap; then the sand runs."""
     head = ("| factor | level | seeds | Δq/q 2 % | Δq/q 5 % | Δq/q 10 % | q_wire/q 10 % [%] "
-            "| σ_w,eq start [Pa] | taut links | mean T [mN] | solid fraction | sliding gap |")
-    lines = [head, "|" + "---|" * 12]
+            "| σ_w,eq start / 2 % / 10 % [Pa] | tr σ_w/3 2 % / 10 % [Pa] | taut links "
+            "| mean T [mN] | solid fraction | sliding gap |")
+    lines = [head, "|" + "---|" * 13]
     for factor, levels in summary["factors"].items():
         for label, lv in levels.items():
             lines.append("| " + " | ".join([
                 factor, label, ",".join(map(str, lv["seeds"])),
                 _pm(lv["dq_2"]), _pm(lv["dq_5"]), _pm(lv["dq_10"]),
                 _pm(lv["q_wire_share_10"], fmt=".2f"),
-                _pm(lv["wire_eq_start"], 1.0, ".1f"), _pm(lv["taut_share"], 1.0, ".2f"),
+                " / ".join(_pm(lv[k], 1.0, ".0f") for k in ("wire_eq_start", "wire_eq_2",
+                                                              "wire_eq_10")),
+                " / ".join(_pm(lv[k], 1.0, ".0f") for k in ("wire_mean_2", "wire_mean_10")),
+                _pm(lv["taut_share"], 1.0, ".2f"),
                 _pm(lv["mean_tension"], 1e3, ".2f"), _pm(lv["solid_fraction"], 1.0, ".3f"),
                 _pm(lv["sliding_gap"], 1.0, ".2f")]) + " |")
     lines += ["", "| sand runs | seeds | q 2 % [kPa] | q 5 % [kPa] | q 10 % [kPa] | solid fraction |",

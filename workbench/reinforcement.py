@@ -44,12 +44,25 @@ FACTORS = {
                      ("4 × (1 000 km/m³)", dict(wire_density=1000e3))],
     "orthotropic wire (Eq. 17)": [("orthotropic", dict(wire_mode="orthotropic"))],
     "layer-crown confinement": [("k = 1 N", dict(confinement="layer_crown"))],
+    # added after the first 28 cases (the prestrain relaxed at once: do the beads slip
+    # through the pores, or fold onto each other?): not in BASELINE, so the cases run
+    # before keep their keys
+    "bead size": [("r_w = 0.27 mm (2 ×)", dict(bead_radius=0.27e-3))],
+    "solid beads (neighbour_contact)": [("linked beads touch", dict(neighbour_contact=True))],
     "law, geometric preparation": [
         ("rigid", dict(wire="rigid", k=None, preparation="geometric")),
         ("k = 0.2 N", dict(k=0.2, preparation="geometric")),
         ("k = 1 N", dict(preparation="geometric")),
         ("k = 10 N", dict(k=10.0, preparation="geometric"))],
 }
+
+
+#: Wire knobs some levels set and the baseline leaves out (its cases' keys stay as they
+#: were): the bead radius [m] and solid beads.
+EXTRA_KEYS = ("bead_radius", "neighbour_contact")
+
+#: The keys of a case that are not factors.
+_NOT_FACTORS = ("seed", "scale", "axial_strain", "name")
 
 
 def _sand_key(params) -> tuple:
@@ -69,6 +82,8 @@ def cases(seeds, scale=1.0, *, factors=None, axial_strain=0.1) -> list[dict]:
                          axial_strain=float(axial_strain))
                 sand = dict(p, wire="none", k=None, wire_density=None, wire_mode="isotropic",
                             mu_wire=BASELINE["mu_wire"], wire_prestrain=0.0)
+                for key in EXTRA_KEYS:          # wire-only knobs: the same sand run
+                    sand.pop(key, None)
                 for c in (sand, p):
                     c["name"] = _name(c)
                     if c["name"] not in seen:
@@ -90,6 +105,10 @@ def _name(p) -> str:
             parts.append(f"muw{p['mu_wire']:g}")
         if p["wire_prestrain"]:
             parts.append(f"eps{p['wire_prestrain']:g}")
+        if p.get("bead_radius") is not None:
+            parts.append(f"rw{p['bead_radius'] * 1e3:g}mm")
+        if p.get("neighbour_contact"):
+            parts.append("solid")
     parts += [p["preparation"], p["confinement"], f"seed{p['seed']}"]
     return "_".join(parts)
 
@@ -215,8 +234,10 @@ def summarize(rows: list[dict]) -> dict:
     for factor, levels in FACTORS.items():
         f = out["factors"][factor] = {}
         for label, change in levels:
+            want = dict(BASELINE, **change)
             runs = [(p, r) for p, r in rows if p["wire"] != "none"
-                    and all(p.get(n) == v for n, v in dict(BASELINE, **change).items())]
+                    and set(p) - set(_NOT_FACTORS) == set(want)
+                    and all(p.get(n) == v for n, v in want.items())]
             if not runs:
                 continue
             lv = f[label] = {"seeds": [p["seed"] for p, _ in runs]}

@@ -86,6 +86,9 @@ class TriaxialParams(SolverParams):
                                  "gravity in its mould first (§2.4), then confined")
     wire_density: Optional[float] = Field(None, gt=0, le=1e8,
                                           description="[m/m³] (None: the paper's)")
+    bead_radius: Optional[float] = Field(None, gt=0, le=1e-2,
+                                         description="[m] the wire's bead radius r_w "
+                                                     "(None: the paper's)")
     wire_mode: Literal["isotropic", "orthotropic"] = Field(
         "isotropic", description="the wire's walk: Eq. 16, or Eq. 17 in horizontal layers")
     wire_prestrain: float = Field(0.0, ge=0, le=1, description=(
@@ -109,7 +112,6 @@ class CylinderParams(TriaxialParams):
 
 class BoxParams(TriaxialParams):
     mu_wall: float = Field(0.0, ge=0, le=10, description="friction of the six walls")
-    bead_radius: Optional[float] = Field(None, gt=0, le=1e-2, description="[m]")
     compaction_mu: Optional[float] = Field(None, ge=0, le=10,
                                            description="friction of the isotropic stage "
                                                        "(None: the test's own)")

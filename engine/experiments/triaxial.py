@@ -122,6 +122,7 @@ def cylinder_triaxial(scale: float = 0.05, *, sample=None, preparation: str = "g
                       pressure: float = 15e3, wire: bool = True,
                       wire_law=None, neighbour_contact: bool = False,
                       wire_density: float | None = None, wire_mode: str = "isotropic",
+                      bead_radius: float | None = None,
                       wire_prestrain: float = 0.0, confinement: str = "free_surface",
                       deposit_steps: int = 6000, axial_strain: float = 0.1, strain_rate: float | None = None,
                       target_I: float = 5e-4, allow_dynamic: bool = False, dt: float = 5e-5,
@@ -151,8 +152,9 @@ def cylinder_triaxial(scale: float = 0.05, *, sample=None, preparation: str = "g
     What the test starts from (:mod:`engine.experiments.start`, docs/experiments.md):
 
     * ``sample``: None (the test builds :func:`~engine.prep.cylinder_sample` at ``scale``
-      with ``seed``, ``wire_density`` [m/m³] (None: the paper's) and ``wire_mode``
-      ("isotropic", Eq. 16, or "orthotropic", Eq. 17)); a geometric
+      with ``seed``, ``wire_density`` [m/m³] (None: the paper's), ``wire_mode``
+      ("isotropic", Eq. 16, or "orthotropic", Eq. 17) and ``bead_radius`` r_w [m] (None:
+      the paper's 0.135 mm)); a geometric
       :class:`engine.prep.Sample` in a cylinder; or an end state: a ``(model, state)``
       pair, a result with a history (``gravity_deposit``'s) or a history or checkpoint
       path, whose "sand" and "wire" particles are taken with their velocities and the
@@ -192,7 +194,8 @@ def cylinder_triaxial(scale: float = 0.05, *, sample=None, preparation: str = "g
     _check_prestrain("cylinder_triaxial", wire_prestrain, neighbour_contact)
     st, deposit, law = _prepared(
         "cylinder_triaxial", Cylinder, lambda: cylinder_sample(
-            scale, wire=wire, wire_density=wire_density, wire_mode=wire_mode, seed=seed),
+            scale, wire=wire, wire_density=wire_density, wire_mode=wire_mode,
+            bead_radius=bead_radius, seed=seed),
         dict(args, anderson=anderson, hot_sweeps=hot_sweeps), law)
     wire = st.has_wire
     axis = st.axis()
@@ -323,6 +326,7 @@ def cylinder_triaxial(scale: float = 0.05, *, sample=None, preparation: str = "g
     res.params = dict(scale=scale, sample=st.source, preparation=preparation,
                       confinement=confinement, wire_density=st.wire_density,
                       wire_mode=wire_mode if sample is None else None,
+                      bead_radius=st.bead_radius if wire else None,
                       wire_prestrain=wire_prestrain if wire else 0.0,
                       deposit_steps=deposit_steps if deposit is not None else None,
                       pressure=p, wire=wire, wire_law=repr(law), neighbour_contact=bool(wire and neighbour_contact), axial_strain=eps_max,
@@ -365,9 +369,11 @@ def _prepared(test, shape, build, a, law):
     sample, wire, wire_density, wire_mode = (a["sample"], a["wire"], a["wire_density"],
                                              a["wire_mode"])
     preparation = check_preparation(a["preparation"])
-    if sample is not None and (wire_density is not None or wire_mode != "isotropic"):
-        raise ValueError(f"{test}: wire_density and wire_mode build the test's own sample; "
-                         f"with sample= given, build the sample with them "
+    given = [n for n, v in (("wire_density", wire_density), ("bead_radius", a["bead_radius"]))
+             if v is not None] + (["wire_mode"] if wire_mode != "isotropic" else [])
+    if sample is not None and given:
+        raise ValueError(f"{test}: {', '.join(given)} build(s) the test's own sample; with "
+                         f"sample= given, build the sample with them "
                          f"(engine.prep.{shape.__name__.lower()}_sample)")
     st = start_of(test, shape, sample, build, wire=wire, wire_law=a["wire_law"])
     if preparation == "geometric":
@@ -605,9 +611,6 @@ def box_triaxial(scale: float = 0.05, *, sample=None, preparation: str = "geomet
     compaction_mu = _compaction_mu(compaction_mu)
     law = wire_law_or_default(wire_law) if wire else None
     _check_prestrain("box_triaxial", wire_prestrain, neighbour_contact)
-    if sample is not None and bead_radius is not None:
-        raise ValueError("box_triaxial: bead_radius builds the test's own sample; with sample= "
-                         "given, build the sample with it (engine.prep.box_sample)")
     st, deposit, law = _prepared(
         "box_triaxial", Box, lambda: box_sample(
             scale, wire=wire, wire_density=wire_density, wire_mode=wire_mode,

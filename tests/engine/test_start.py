@@ -146,9 +146,11 @@ def test_bad_starts_are_refused_by_name(tmp_path, paper_cyl):
         (lambda: cylinder_triaxial(sample=dep, preparation="paper", history=h, **CYL),
          "an end state already"),
         (lambda: cylinder_triaxial(sample=cylinder_sample(0.05), wire_density=5e5, history=h,
-                                   **CYL), "wire_density and wire_mode build"),
+                                   **CYL), "wire_density build"),
         (lambda: box_triaxial(sample=box_sample(0.05), bead_radius=1e-4, history=h, **BOX),
-         "bead_radius builds"),
+         "bead_radius build"),
+        (lambda: cylinder_triaxial(sample=dep, bead_radius=2e-4, history=h, **CYL),
+         "bead_radius build"),
         (lambda: cylinder_triaxial(preparation="wet", history=h, **CYL),
          r"preparation = 'wet'"),
         (lambda: cylinder_triaxial(confinement="rubber", history=h, **CYL),
@@ -284,6 +286,14 @@ def test_a_layer_crown_cylinder_reaches_the_pressure(tmp_path):
                           **CYL)
     assert r.extra["isotropic"]["reached"] and r.params["confinement"] == "layer_crown"
     assert abs(r.mean_stress[0] / 15e3 - 1) < 0.05
+
+
+def test_the_cylinders_bead_size_is_a_knob(tmp_path):
+    """bead_radius builds the cylinder's wire of beads that size (as the box's), recorded."""
+    r = cylinder_triaxial(0.05, bead_radius=2.7e-4, history=str(tmp_path / "c.h5"), **CYL)
+    assert r.params["bead_radius"] == 2.7e-4
+    model, _ = io.load(r.history, frame=0)
+    np.testing.assert_array_equal(model.body_radius[model.bodies_in("wire")], 2.7e-4)
 
 
 def test_an_orthotropic_wire_lies_in_layers():

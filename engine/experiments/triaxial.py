@@ -190,13 +190,8 @@ def cylinder_triaxial(scale: float = 0.05, *, sample=None, preparation: str = "g
     compaction_mu = _compaction_mu(compaction_mu, CYLINDER_COMPACTION_MU_MIN,
                                    " (at 0 the free-surface confinement let the "
                                    "frictionless grains out)")
-    law = wire_law_or_default(wire_law) if wire else None
-    _check_prestrain("cylinder_triaxial", wire_prestrain, neighbour_contact)
-    st, deposit, law = _prepared(
-        "cylinder_triaxial", Cylinder, lambda: cylinder_sample(
-            scale, wire=wire, wire_density=wire_density, wire_mode=wire_mode,
-            bead_radius=bead_radius, seed=seed),
-        dict(args, anderson=anderson, hot_sweeps=hot_sweeps), law)
+    st, deposit, law = _prepared("cylinder_triaxial", Cylinder, cylinder_sample, dict(
+        args, scale=scale, anderson=anderson, hot_sweeps=hot_sweeps))
     wire = st.has_wire
     axis = st.axis()
     across = 2 * st.outer_radius(axis) / (2 * float(st.sand_radii.mean()))
@@ -359,15 +354,19 @@ _DEPOSIT_ARGS = ("dt", "theta", "tol", "max_iter", "relax", "anderson", "threads
                  "hot_sweeps", "mu", "mu_wall", "mu_wire", "max_nonconverged", "seed")
 
 
-def _prepared(test, shape, build, a, law):
+def _prepared(test, shape, builder, a):
     """(the :class:`~engine.experiments.start.Start` of a triaxial test, the deposit's
-    result or None, the wire's law): the test's ``sample`` or ``build()``'s sample,
+    result or None, the wire's law): the test's ``sample`` or its own, built by
+    ``builder`` (:func:`~engine.prep.cylinder_sample` or :func:`~engine.prep.box_sample`),
     prepared as its ``preparation`` says (:mod:`engine.experiments.start`; the paper
     preparation's :func:`~engine.experiments.gravity_deposit` takes the test's solver
     options, friction and seed, and ``deposit_steps``).  ``a``: the test's arguments (its
-    ``locals()`` on entry, the solver choice resolved); ``law``: the test's wire law."""
+    ``locals()`` on entry, with the scale and the solver choice resolved).  The wire law
+    and the prestrain are checked before any sample is built."""
     sample, wire, wire_density, wire_mode = (a["sample"], a["wire"], a["wire_density"],
                                              a["wire_mode"])
+    law = wire_law_or_default(a["wire_law"]) if wire else None
+    _check_prestrain(test, a["wire_prestrain"], a["neighbour_contact"])
     preparation = check_preparation(a["preparation"])
     given = [n for n, v in (("wire_density", wire_density), ("bead_radius", a["bead_radius"]))
              if v is not None] + (["wire_mode"] if wire_mode != "isotropic" else [])
@@ -375,6 +374,10 @@ def _prepared(test, shape, build, a, law):
         raise ValueError(f"{test}: {', '.join(given)} build(s) the test's own sample; with "
                          f"sample= given, build the sample with them "
                          f"(engine.prep.{shape.__name__.lower()}_sample)")
+    def build():
+        return builder(a["scale"], wire=wire, wire_density=wire_density, wire_mode=wire_mode,
+                       bead_radius=a["bead_radius"], seed=a["seed"])
+
     st = start_of(test, shape, sample, build, wire=wire, wire_law=a["wire_law"])
     if preparation == "geometric":
         return st, None, st.wire_law(law) if st.has_wire else None
@@ -609,13 +612,8 @@ def box_triaxial(scale: float = 0.05, *, sample=None, preparation: str = "geomet
     p = float(pressure)
     eps_max = float(axial_strain)
     compaction_mu = _compaction_mu(compaction_mu)
-    law = wire_law_or_default(wire_law) if wire else None
-    _check_prestrain("box_triaxial", wire_prestrain, neighbour_contact)
-    st, deposit, law = _prepared(
-        "box_triaxial", Box, lambda: box_sample(
-            scale, wire=wire, wire_density=wire_density, wire_mode=wire_mode,
-            bead_radius=bead_radius, seed=seed),
-        dict(args, anderson=anderson, hot_sweeps=hot_sweeps), law)
+    st, deposit, law = _prepared("box_triaxial", Box, box_sample, dict(
+        args, scale=scale, anderson=anderson, hot_sweeps=hot_sweeps))
     wire = st.has_wire
     box = st.box()
     lo, hi = np.array(box.lo), np.array(box.hi)

@@ -83,6 +83,15 @@ def main(argv=None):
     # the strain slack of workbench.reinforcement.STRAIN_SLACK missed q at 10 %)
     rows = [(r["params"], rescore(r["params"]["name"], r["result"], runs_dir))
             for r in table.done]
+    # kept in the table, so a later summary without the histories (a fresh clone, another
+    # machine) gives the same figures
+    fresh = {r["id"]: res for r, (_, res) in zip(table.done, rows)
+             if res.get("rescored") and res != r["result"]}
+    if fresh:
+        from engine.sweep import update_results
+
+        update_results(table_path, fresh)
+        print(f"{len(fresh)} rescored results kept in {table_path}")
     summary = summarize(rows)
     for factor, levels in summary["factors"].items():
         for label, lv in levels.items():

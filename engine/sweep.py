@@ -50,7 +50,7 @@ import numpy as np
 
 __all__ = ["sweep", "SweepTable", "expand_grid", "case_key", "case_id", "run_case",
            "scalars_of", "load_table", "EXPERIMENTS", "local_client", "CaseInterrupted",
-           "not_interrupted"]
+           "not_interrupted", "update_results"]
 
 #: Format version of the JSON table.
 TABLE_VERSION = 1
@@ -442,6 +442,22 @@ def _write_json(table: SweepTable, path: Path, meta: dict):
         json.dump({"version": TABLE_VERSION, **meta, "cases": table.rows}, f, indent=1,
                   sort_keys=False, allow_nan=False)
     os.replace(tmp, path)                      # atomic: a crash leaves the old table
+
+
+def update_results(path, results: Mapping[str, dict]) -> SweepTable:
+    """Replace the ``result`` scalars of the table's done rows named in ``results`` (case id
+    -> scalars), as a sweep stores them (non-finite floats as None), and write the table
+    back atomically; for results recomputed after the run (a study rescoring its cases from
+    their histories) that must outlive the histories."""
+    table = load_table(path)
+    if not table.rows:
+        raise ValueError(f"{path}: no sweep table there")
+    for row in table.done:
+        if row["id"] in results:
+            row["result"] = {k: _scalar(v)[0] for k, v in results[row["id"]].items()
+                             if _scalar(v)[1]}
+    _write_json(table, Path(path), dict(experiment=table.rows[0]["experiment"]))
+    return table
 
 
 def write_hdf5(table: SweepTable, path) -> Path:

@@ -15,7 +15,7 @@ pytest.importorskip("distributed")
 
 from engine import Scene, laws, run  # noqa: E402
 from engine.sweep import (case_id, case_key, expand_grid, load_table, local_client,  # noqa: E402
-                          sweep)
+                          sweep, update_results)
 
 
 # ---------------------------------------------------------------- a cheap experiment
@@ -190,6 +190,26 @@ def test_rerun_skips_finished_cases(tmp_path, capsys):
     assert third.rows[0]["skipped"]
     with open(out) as f:
         assert len(json.load(f)["cases"]) == 3
+
+
+def test_results_recomputed_after_the_run_are_kept_and_resumed(tmp_path):
+    """update_results replaces the named done rows' scalars as a sweep stores them (NaN as
+    None, arrays dropped), leaves the other rows as they were, and a re-run of the sweep
+    takes the new scalars as finished."""
+    out = tmp_path / "u.json"
+    grid = [{"height": 2e-3}, {"height": 4e-3}]
+    first = sweep(drop, grid, "serial", out=out, progress=False)
+    a, b = first.rows
+    new = dict(a["result"], z=-1.0, extra=float("nan"), array=np.ones(2), rescored=True)
+    update_results(out, {a["id"]: new})
+    stored = load_table(out).rows
+    assert stored[0]["result"]["z"] == -1.0 and stored[0]["result"]["extra"] is None
+    assert "array" not in stored[0]["result"] and stored[0]["result"]["rescored"] is True
+    assert stored[1] == b
+    again = sweep(drop, grid, "serial", out=out, progress=False)
+    assert again.rows[0]["skipped"] and again.rows[0]["result"]["z"] == -1.0
+    with pytest.raises(ValueError, match="no sweep table"):
+        update_results(tmp_path / "none.json", {})
 
 
 def test_a_cluster_without_workers_fails_the_cases_instead_of_hanging(tmp_path):

@@ -11,12 +11,13 @@ import math
 
 import numpy as np
 from numba import njit
+from numba.typed import List
 
 EPS_OVERLAP = 1e-10        # relative tolerance of the overlap test (centre distances)
 CYL = -2                   # the cylinder side's constraint id
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def _plane(c, r, phi, wall_n, wall_d, cyl, out):
     """Centre-plane of wall constraint ``c`` for a sphere of radius r: out = (nx, ny, nz, d)
     with n·x = d at tangency (n points into the container)."""
@@ -30,7 +31,7 @@ def _plane(c, r, phi, wall_n, wall_d, cyl, out):
         out[3] = wall_d[w] + r
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def _solve_once(a, b, c, sg, r, phi, X, Y, Z, R, wall_n, wall_d, cyl, work, out):
     """One solve with the cylinder side (if any) frozen as its tangent plane at angle phi."""
     cons = (a, b, c)
@@ -104,7 +105,7 @@ def _solve_once(a, b, c, sg, r, phi, X, Y, Z, R, wall_n, wall_d, cyl, work, out)
     return True
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def solve_pocket(a, b, c, sg, r, X, Y, Z, R, wall_n, wall_d, cyl, work, out):
     """Centre ``out`` (3,) of a sphere of radius r touching constraints a, b, c (root sg).
     A cylinder side is handled by a fixed point on its tangent plane."""
@@ -131,13 +132,13 @@ def solve_pocket(a, b, c, sg, r, X, Y, Z, R, wall_n, wall_d, cyl, work, out):
     return False
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def _cell(x, lo, inv_h, n):
     k = int(math.floor((x - lo) * inv_h))
     return 0 if k < 0 else (n - 1 if k >= n else k)
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def inside(x, y, z, r, box, cyl, top):
     """Is a sphere (x, y, z, r) inside the container (boundary included, 1e-12 tolerance)?"""
     tol = 1e-12 * r
@@ -150,13 +151,21 @@ def inside(x, y, z, r, box, cyl, top):
     return (box[0] + r - tol <= x <= box[1] - r + tol) and (box[2] + r - tol <= y <= box[3] - r + tol)
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def free(x, y, z, r, X, Y, Z, R, head, nxt, glo, inv_h, gn):
     """No sphere overlaps (x, y, z, r) by more than EPS_OVERLAP of the contact distance."""
     return overlapping(x, y, z, r, X, Y, Z, R, head, nxt, glo, inv_h, gn) < 0
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
+def _overlaps(x, y, z, r, xq, yq, zq, rq):
+    """Does the sphere (x, y, z, r) overlap (xq, yq, zq, rq) beyond EPS_OVERLAP?"""
+    lim = (rq + r) * (1.0 - EPS_OVERLAP)
+    dx, dy, dz = x - xq, y - yq, z - zq
+    return dx * dx + dy * dy + dz * dz < lim * lim
+
+
+@njit(cache=True, _nrt=False)
 def overlapping(x, y, z, r, X, Y, Z, R, head, nxt, glo, inv_h, gn):
     """The first sphere overlapping (x, y, z, r), or -1."""
     i0, j0, k0 = _cell(x, glo[0], inv_h, gn[0]), _cell(y, glo[1], inv_h, gn[1]), _cell(z, glo[2], inv_h, gn[2])
@@ -174,7 +183,7 @@ def overlapping(x, y, z, r, X, Y, Z, R, head, nxt, glo, inv_h, gn):
     return -1
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def stable(a, b, c, x, y, z, r, X, Y, Z, R, wall_n, cyl, work):
     """Can gravity (−z) be balanced by non-negative normal forces of the three supports?"""
     cons = (a, b, c)
@@ -204,7 +213,7 @@ def stable(a, b, c, x, y, z, r, X, Y, Z, R, wall_n, cyl, work):
     return l0 >= -1e-9 and l1 >= -1e-9 and l2 >= -1e-9
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def _drop(x, y, r, z_floor, X, Y, Z, R, head, nxt, glo, inv_h, gn, give_up):
     """Height at which a sphere of radius r falling along the vertical through (x, y) first
     touches a sphere or the floor (np.inf as soon as it exceeds ``give_up``)."""
@@ -227,7 +236,7 @@ def _drop(x, y, r, z_floor, X, Y, Z, R, head, nxt, glo, inv_h, gn, give_up):
     return z
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def _grid_add(q, x, y, z, head, nxt, glo, inv_h, gn):
     i, j, k = _cell(x, glo[0], inv_h, gn[0]), _cell(y, glo[1], inv_h, gn[1]), _cell(z, glo[2], inv_h, gn[2])
     c = (i * gn[1] + j) * gn[2] + k
@@ -235,14 +244,21 @@ def _grid_add(q, x, y, z, head, nxt, glo, inv_h, gn):
     head[c] = q
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
+def _before(k1, v1, k2, v2):
+    """Heap order: by key, ties by pocket id (so the order never depends on the heap's
+    history)."""
+    return k1 < k2 or (k1 == k2 and v1 < v2)
+
+
+@njit(cache=True, _nrt=False)
 def _heap_push(keys, vals, n, key, val):
     i = n
     keys[i] = key
     vals[i] = val
     while i > 0:
         p = (i - 1) >> 1
-        if keys[p] <= keys[i]:
+        if not _before(keys[i], vals[i], keys[p], vals[p]):
             break
         keys[p], keys[i] = keys[i], keys[p]
         vals[p], vals[i] = vals[i], vals[p]
@@ -250,7 +266,7 @@ def _heap_push(keys, vals, n, key, val):
     return n + 1
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def _heap_pop(keys, vals, n):
     key, val = keys[0], vals[0]
     n -= 1
@@ -261,9 +277,9 @@ def _heap_pop(keys, vals, n):
         if l >= n:
             break
         m = l
-        if l + 1 < n and keys[l + 1] < keys[l]:
+        if l + 1 < n and _before(keys[l + 1], vals[l + 1], keys[l], vals[l]):
             m = l + 1
-        if keys[i] <= keys[m]:
+        if not _before(keys[m], vals[m], keys[i], vals[i]):
             break
         keys[m], keys[i] = keys[i], keys[m]
         vals[m], vals[i] = vals[i], vals[m]
@@ -271,7 +287,61 @@ def _heap_pop(keys, vals, n):
     return key, val, n
 
 
+#: Pockets are kept in this many heaps by the largest grain they may still take (pmax):
+#: class c holds the pockets with pmax <= ub[c], so a grain of radius r only looks at the
+#: classes with ub[c] > r and never at the pockets that only smaller grains fit.
+N_CLASSES = 32
+
+
 @njit(cache=True)
+def _class_bounds(r_lo, r_hi):
+    """ub (N_CLASSES,) [m]: the upper pmax bound of each class (the last one unbounded)."""
+    ub = np.empty(N_CLASSES)
+    w = (r_hi - r_lo) / (N_CLASSES - 1)
+    for c in range(N_CLASSES - 1):
+        ub[c] = r_lo + (c + 1) * w
+    ub[N_CLASSES - 1] = np.inf
+    return ub
+
+
+@njit(cache=True, _nrt=False)
+def _class_of(p, ub):
+    """The first class whose bound is >= p (pmax p [m], np.inf for 'any grain')."""
+    c = 0
+    while c < N_CLASSES - 1 and ub[c] < p:
+        c += 1
+    return c
+
+
+@njit(cache=True)
+def _push_class(kl, vl, nh, tk, tv, c, key, val):
+    """Push (key, val) on class c's heap (its arrays grown when full); tk[c], tv[c] keep its
+    top, so the classes are compared without touching the list of heaps."""
+    keys, vals = kl[c], vl[c]
+    if nh[c] >= keys.shape[0]:
+        k2 = np.empty(2 * keys.shape[0])
+        k2[:nh[c]] = keys[:nh[c]]
+        v2 = np.empty(2 * vals.shape[0], np.int64)
+        v2[:nh[c]] = vals[:nh[c]]
+        kl[c], vl[c] = k2, v2
+        keys, vals = k2, v2
+    nh[c] = _heap_push(keys, vals, nh[c], key, val)
+    tk[c], tv[c] = keys[0], vals[0]
+
+
+@njit(cache=True, inline='always')
+def _pop_class(kl, vl, nh, tk, tv, c):
+    """Pop class c's lowest pocket: (key, val); its new top in tk[c], tv[c]."""
+    keys, vals = kl[c], vl[c]
+    key, val, nh[c] = _heap_pop(keys, vals, nh[c])
+    if nh[c] > 0:
+        tk[c], tv[c] = keys[0], vals[0]
+    else:
+        tk[c], tv[c] = np.inf, -1
+    return key, val
+
+
+@njit(cache=True, _nrt=False)
 def _classify(a, b, c, sg, r_lo, r_hi, X, Y, Z, R, head, nxt, glo, inv_h, gn,
               wall_n, wall_d, cyl, box, top, work, pos):
     """(alive, key) of a pocket: dead if, for the smallest grain (or, when that one has no
@@ -309,21 +379,27 @@ def deposit_kernel(radii, n_obs, X, Y, Z, R, wall_n, wall_d, nwall, cyl, box, to
     nxt = -np.ones(nb_tot, np.int64)
     work = np.zeros((3, 4))
     pos = np.zeros(3)
-    cap = 1 << 16
-    keys = np.empty(cap)
-    vals = np.empty(cap, np.int64)
-    nh = 0
+    r_lo, r_hi = radii.min(), radii.max()
+    ub = _class_bounds(r_lo, r_hi)
+    kl = List()
+    vl = List()
+    for c in range(N_CLASSES):
+        kl.append(np.empty(256))
+        vl.append(np.empty(256, np.int64))
+    nh = np.zeros(N_CLASSES, np.int64)
+    tk = np.full(N_CLASSES, np.inf)         # each class's lowest key and its pocket
+    tv = np.full(N_CLASSES, -1, np.int64)
     pcap = 1 << 16
     pa = np.empty(pcap, np.int64)
     pb = np.empty(pcap, np.int64)
     pc = np.empty(pcap, np.int64)
     ps = np.empty(pcap, np.float64)
     pmax = np.empty(pcap)          # grains this large or larger overlap something there
+    pblk = np.empty(pcap, np.int64)  # the sphere that last blocked the pocket, or -1
     npk = 0
     nbr = np.empty(4096, np.int64)
     back = np.empty(4096, np.int64)
     backk = np.empty(4096)
-    r_lo, r_hi = radii.min(), radii.max()
     walls = np.empty(nwall, np.int64)
     n_placed = 0
     n_drop = 0
@@ -336,41 +412,67 @@ def deposit_kernel(radii, n_obs, X, Y, Z, R, wall_n, wall_d, nwall, cyl, box, to
             # a stable pocket rises at least as fast as the grain grows (dz/dr = Σλ_k >= 1 with
             # e_z = Σ λ_k n_k, |n_k| = 1), so key + (r − r_lo) bounds its height from below
             lift = r - r_lo
-            while nh > 0 and keys[0] + lift < bestz:
-                key, v, nh = _heap_pop(keys, vals, nh)
-                a, b, c, sg = pa[v], pb[v], pc[v], ps[v]
-                keep, cand = True, False
-                if r < pmax[v] and solve_pocket(a, b, c, sg, r, X, Y, Z, R, wall_n, wall_d,
-                                                cyl, work, pos):
-                    if pos[2] < bestz and inside(pos[0], pos[1], pos[2], r, box, cyl, top):
-                        q = overlapping(pos[0], pos[1], pos[2], r, X, Y, Z, R, head, nxt, glo, inv_h, gn)
-                        if q >= 0:
-                            # a sphere above the centre: larger grains, which sit higher,
-                            # hit it too (skip them); dead if the smallest grain no longer fits
-                            if Z[q] > pos[2] and r < pmax[v]:
-                                pmax[v] = r
-                            keep, key = _classify(a, b, c, sg, r_lo, r_hi, X, Y, Z, R, head, nxt,
-                                                  glo, inv_h, gn, wall_n, wall_d, cyl, box, top,
-                                                  work, pos)
-                        elif stable(a, b, c, pos[0], pos[1], pos[2], r, X, Y, Z, R, wall_n, cyl, work):
-                            cand = True
-                if cand:
-                    if best >= 0:
-                        back[nback], backk[nback] = best, bestk
+            # (the lowest centre wins, ties to the lowest pocket id, whatever the order of
+            # the classes; a class is only looked at if it may hold pockets taking r)
+            c0 = 0
+            while ub[c0] <= r:
+                c0 += 1
+            while True:
+                # the lowest pocket of the classes that may take r
+                cl = -1
+                for c in range(c0, N_CLASSES):
+                    if nh[c] > 0 and (cl < 0 or _before(tk[c], tv[c], tk[cl], tv[cl])):
+                        cl = c
+                if cl < 0 or tk[cl] + lift > bestz:
+                    break
+                if True:
+                    key, v = _pop_class(kl, vl, nh, tk, tv, cl)
+                    a, b, c, sg = pa[v], pb[v], pc[v], ps[v]
+                    keep, cand = True, False
+                    if r < pmax[v] and solve_pocket(a, b, c, sg, r, X, Y, Z, R, wall_n, wall_d,
+                                                    cyl, work, pos):
+                        if pos[2] <= bestz and inside(pos[0], pos[1], pos[2], r, box, cyl, top):
+                            # the sphere that blocked it last still does (spheres are never
+                            # removed): nothing new is learnt, no grid search
+                            q = pblk[v]
+                            if q >= 0 and _overlaps(pos[0], pos[1], pos[2], r, X[q], Y[q], Z[q],
+                                                    R[q]):
+                                if Z[q] > pos[2] and r < pmax[v]:
+                                    pmax[v] = r
+                            else:
+                                q = overlapping(pos[0], pos[1], pos[2], r, X, Y, Z, R, head, nxt,
+                                                glo, inv_h, gn)
+                                if q >= 0:
+                                    pblk[v] = q
+                                    # a sphere above the centre: larger grains, which sit
+                                    # higher, hit it too (skip them); dead if the smallest
+                                    # grain no longer fits
+                                    if Z[q] > pos[2] and r < pmax[v]:
+                                        pmax[v] = r
+                                    keep, key = _classify(a, b, c, sg, r_lo, r_hi, X, Y, Z, R,
+                                                          head, nxt, glo, inv_h, gn, wall_n,
+                                                          wall_d, cyl, box, top, work, pos)
+                                elif (pos[2] < bestz or v < best) and stable(
+                                        a, b, c, pos[0], pos[1], pos[2], r, X, Y, Z, R, wall_n,
+                                        cyl, work):
+                                    cand = True
+                    if cand:
+                        if best >= 0:
+                            back[nback], backk[nback] = best, bestk
+                            nback += 1
+                        best, bestz, bestk = v, pos[2], key
+                    elif keep:
+                        back[nback], backk[nback] = v, key
                         nback += 1
-                    best, bestz, bestk = v, pos[2], key
-                elif keep:
-                    back[nback], backk[nback] = v, key
-                    nback += 1
-                if nback >= back.shape[0] - 1:
-                    nb2 = np.empty(2 * back.shape[0], np.int64)
-                    nb2[:nback] = back[:nback]
-                    back = nb2
-                    bk2 = np.empty(2 * backk.shape[0])
-                    bk2[:nback] = backk[:nback]
-                    backk = bk2
+                    if nback >= back.shape[0] - 1:
+                        nb2 = np.empty(2 * back.shape[0], np.int64)
+                        nb2[:nback] = back[:nback]
+                        back = nb2
+                        bk2 = np.empty(2 * backk.shape[0])
+                        bk2[:nback] = backk[:nback]
+                        backk = bk2
             for q in range(nback):
-                nh = _heap_push(keys, vals, nh, backk[q], back[q])
+                _push_class(kl, vl, nh, tk, tv, _class_of(pmax[back[q]], ub), backk[q], back[q])
             if best >= 0:
                 solve_pocket(pa[best], pb[best], pc[best], ps[best], r, X, Y, Z, R,
                              wall_n, wall_d, cyl, work, pos)
@@ -471,15 +573,11 @@ def deposit_kernel(radii, n_obs, X, Y, Z, R, wall_n, wall_d, nwall, cyl, box, to
                         t5 = np.empty(pcap)
                         t5[:npk] = pmax[:npk]
                         pmax = t5
+                        t6 = np.empty(pcap, np.int64)
+                        t6[:npk] = pblk[:npk]
+                        pblk = t6
                     pa[npk], pb[npk], pc[npk], ps[npk], pmax[npk] = s, ca, cb, sg, np.inf
-                    if nh >= cap:
-                        cap *= 2
-                        k1 = np.empty(cap)
-                        k1[:nh] = keys[:nh]
-                        keys = k1
-                        v1 = np.empty(cap, np.int64)
-                        v1[:nh] = vals[:nh]
-                        vals = v1
-                    nh = _heap_push(keys, vals, nh, key, npk)
+                    pblk[npk] = -1
+                    _push_class(kl, vl, nh, tk, tv, N_CLASSES - 1, key, npk)
                     npk += 1
     return n_placed, 0, n_drop

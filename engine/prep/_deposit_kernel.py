@@ -11,7 +11,6 @@ import math
 
 import numpy as np
 from numba import njit
-from numba.typed import List
 
 EPS_OVERLAP = 1e-10        # relative tolerance of the overlap test (centre distances)
 CYL = -2                   # the cylinder side's constraint id
@@ -252,37 +251,39 @@ def _before(k1, v1, k2, v2):
 
 
 @njit(cache=True, _nrt=False)
-def _heap_push(keys, vals, n, key, val):
+def _heap_push(keys, vals, o, n, key, val):
+    """Push (key, val) on the heap keys[o:o + n], vals[o:o + n]; returns n + 1."""
     i = n
-    keys[i] = key
-    vals[i] = val
+    keys[o + i] = key
+    vals[o + i] = val
     while i > 0:
         p = (i - 1) >> 1
-        if not _before(keys[i], vals[i], keys[p], vals[p]):
+        if not _before(keys[o + i], vals[o + i], keys[o + p], vals[o + p]):
             break
-        keys[p], keys[i] = keys[i], keys[p]
-        vals[p], vals[i] = vals[i], vals[p]
+        keys[o + p], keys[o + i] = keys[o + i], keys[o + p]
+        vals[o + p], vals[o + i] = vals[o + i], vals[o + p]
         i = p
     return n + 1
 
 
 @njit(cache=True, _nrt=False)
-def _heap_pop(keys, vals, n):
-    key, val = keys[0], vals[0]
+def _heap_pop(keys, vals, o, n):
+    """Pop the lowest (key, val) of the heap keys[o:o + n]; returns (key, val, n − 1)."""
+    key, val = keys[o], vals[o]
     n -= 1
-    keys[0], vals[0] = keys[n], vals[n]
+    keys[o], vals[o] = keys[o + n], vals[o + n]
     i = 0
     while True:
         l = 2 * i + 1
         if l >= n:
             break
         m = l
-        if l + 1 < n and _before(keys[l + 1], vals[l + 1], keys[l], vals[l]):
+        if l + 1 < n and _before(keys[o + l + 1], vals[o + l + 1], keys[o + l], vals[o + l]):
             m = l + 1
-        if not _before(keys[m], vals[m], keys[i], vals[i]):
+        if not _before(keys[o + m], vals[o + m], keys[o + i], vals[o + i]):
             break
-        keys[m], keys[i] = keys[i], keys[m]
-        vals[m], vals[i] = vals[i], vals[m]
+        keys[o + m], keys[o + i] = keys[o + i], keys[o + m]
+        vals[o + m], vals[o + i] = vals[o + i], vals[o + m]
         i = m
     return key, val, n
 
@@ -313,34 +314,6 @@ def _class_of(p, ub):
     return c
 
 
-@njit(cache=True)
-def _push_class(kl, vl, nh, tk, tv, c, key, val):
-    """Push (key, val) on class c's heap (its arrays grown when full); tk[c], tv[c] keep its
-    top, so the classes are compared without touching the list of heaps."""
-    keys, vals = kl[c], vl[c]
-    if nh[c] >= keys.shape[0]:
-        k2 = np.empty(2 * keys.shape[0])
-        k2[:nh[c]] = keys[:nh[c]]
-        v2 = np.empty(2 * vals.shape[0], np.int64)
-        v2[:nh[c]] = vals[:nh[c]]
-        kl[c], vl[c] = k2, v2
-        keys, vals = k2, v2
-    nh[c] = _heap_push(keys, vals, nh[c], key, val)
-    tk[c], tv[c] = keys[0], vals[0]
-
-
-@njit(cache=True, inline='always')
-def _pop_class(kl, vl, nh, tk, tv, c):
-    """Pop class c's lowest pocket: (key, val); its new top in tk[c], tv[c]."""
-    keys, vals = kl[c], vl[c]
-    key, val, nh[c] = _heap_pop(keys, vals, nh[c])
-    if nh[c] > 0:
-        tk[c], tv[c] = keys[0], vals[0]
-    else:
-        tk[c], tv[c] = np.inf, -1
-    return key, val
-
-
 @njit(cache=True, _nrt=False)
 def _classify(a, b, c, sg, r_lo, r_hi, X, Y, Z, R, head, nxt, glo, inv_h, gn,
               wall_n, wall_d, cyl, box, top, work, pos):
@@ -365,6 +338,200 @@ def _classify(a, b, c, sg, r_lo, r_hi, X, Y, Z, R, head, nxt, glo, inv_h, gn,
     return False, 0.0
 
 
+@njit(cache=True, _nrt=False)
+def _best_pocket(r, r_lo, r_hi, ub, hk, hv, off, nh, tk, tv, pa, pb, pc, ps, pmax, pblk,
+                 back, backk, X, Y, Z, R, head, nxt, glo, inv_h, gn, wall_n, wall_d, cyl,
+                 box, top, work, pos):
+    """The lowest pocket that takes a grain of radius r: (pocket or −1, count of the
+    pockets to push back, in back/backk with their keys; back holds every heap entry).
+
+    Pockets are popped in key order from the classes that may take r until no lower one can
+    beat the best found: a stable pocket rises at least as fast as the grain grows
+    (dz/dr = Σλ_k >= 1 with e_z = Σ λ_k n_k, |n_k| = 1), so key + (r − r_lo) bounds its
+    height from below.  The lowest centre wins, ties to the lowest pocket id, whatever the
+    order of the classes."""
+    best, bestz, bestk, nback = -1, np.inf, 0.0, 0
+    lift = r - r_lo
+    c0 = 0
+    while ub[c0] <= r:
+        c0 += 1
+    while True:
+        cl = -1
+        for c in range(c0, N_CLASSES):
+            if nh[c] > 0 and (cl < 0 or _before(tk[c], tv[c], tk[cl], tv[cl])):
+                cl = c
+        if cl < 0 or tk[cl] + lift > bestz:
+            break
+        o = off[cl]
+        key, v, nh[cl] = _heap_pop(hk, hv, o, nh[cl])
+        if nh[cl] > 0:
+            tk[cl], tv[cl] = hk[o], hv[o]
+        else:
+            tk[cl], tv[cl] = np.inf, -1
+        a, b, c, sg = pa[v], pb[v], pc[v], ps[v]
+        keep, cand = True, False
+        if r < pmax[v] and solve_pocket(a, b, c, sg, r, X, Y, Z, R, wall_n, wall_d, cyl, work,
+                                        pos):
+            if pos[2] <= bestz and inside(pos[0], pos[1], pos[2], r, box, cyl, top):
+                # the sphere that blocked it last still does (spheres are never removed):
+                # nothing new is learnt, no grid search
+                q = pblk[v]
+                if q >= 0 and _overlaps(pos[0], pos[1], pos[2], r, X[q], Y[q], Z[q], R[q]):
+                    if Z[q] > pos[2] and r < pmax[v]:
+                        pmax[v] = r
+                else:
+                    q = overlapping(pos[0], pos[1], pos[2], r, X, Y, Z, R, head, nxt, glo,
+                                    inv_h, gn)
+                    if q >= 0:
+                        pblk[v] = q
+                        # a sphere above the centre: larger grains, which sit higher, hit it
+                        # too (skip them); dead if the smallest grain no longer fits
+                        if Z[q] > pos[2] and r < pmax[v]:
+                            pmax[v] = r
+                        keep, key = _classify(a, b, c, sg, r_lo, r_hi, X, Y, Z, R, head, nxt,
+                                              glo, inv_h, gn, wall_n, wall_d, cyl, box, top,
+                                              work, pos)
+                    elif (pos[2] < bestz or v < best) and stable(
+                            a, b, c, pos[0], pos[1], pos[2], r, X, Y, Z, R, wall_n, cyl, work):
+                        cand = True
+        if cand:
+            if best >= 0:
+                back[nback], backk[nback] = best, bestk
+                nback += 1
+            best, bestz, bestk = v, pos[2], key
+        elif keep:
+            back[nback], backk[nback] = v, key
+            nback += 1
+    return best, nback
+
+
+@njit(cache=True, _nrt=False)
+def _push_back(back, backk, nback, pmax, ub, hk, hv, off, nh, tk, tv):
+    """Push the popped pockets back, each on the heap of its class (room reserved)."""
+    for q in range(nback):
+        c = _class_of(pmax[back[q]], ub)
+        o = off[c]
+        nh[c] = _heap_push(hk, hv, o, nh[c], backk[q], back[q])
+        tk[c], tv[c] = hk[o], hv[o]
+
+
+@njit(cache=True, _nrt=False)
+def _neighbours(s, n_obs, support_obs, reach, r_hi, X, Y, Z, R, head, nxt, glo, inv_h, gn,
+                nbr):
+    """The spheres within reach of sphere s, in nbr; their count, or −1 if nbr is full."""
+    xs, ys, zs, rs = X[s], Y[s], Z[s], R[s]
+    nn = 0
+    span = int(math.ceil((2 * (r_hi if r_hi > rs else rs) + 2 * reach) * inv_h))
+    i0, j0, k0 = (_cell(xs, glo[0], inv_h, gn[0]), _cell(ys, glo[1], inv_h, gn[1]),
+                  _cell(zs, glo[2], inv_h, gn[2]))
+    for i in range(max(i0 - span, 0), min(i0 + span + 1, gn[0])):
+        for j in range(max(j0 - span, 0), min(j0 + span + 1, gn[1])):
+            for k in range(max(k0 - span, 0), min(k0 + span + 1, gn[2])):
+                q = head[(i * gn[1] + j) * gn[2] + k]
+                while q >= 0:
+                    if q != s and (support_obs or q >= n_obs):
+                        d = rs + R[q] + 2 * reach
+                        dx, dy, dz = xs - X[q], ys - Y[q], zs - Z[q]
+                        if dx * dx + dy * dy + dz * dz <= d * d:
+                            if nn >= nbr.shape[0]:
+                                return -1
+                            nbr[nn] = q
+                            nn += 1
+                    q = nxt[q]
+    return nn
+
+
+@njit(cache=True, _nrt=False)
+def _walls_near(s, reach, X, Y, Z, R, wall_n, wall_d, nwall, cyl, walls):
+    """The walls within reach of sphere s (as constraint ids) in walls; their count."""
+    xs, ys, zs, rs = X[s], Y[s], Z[s], R[s]
+    nw = 0
+    for w in range(nwall):
+        if cyl[2] > 0 and w == 1:
+            dist = cyl[2] - math.sqrt((xs - cyl[0]) ** 2 + (ys - cyl[1]) ** 2) - rs
+        else:
+            dist = wall_n[w, 0] * xs + wall_n[w, 1] * ys + wall_n[w, 2] * zs - wall_d[w] - rs
+        if dist <= 2 * reach:
+            walls[nw] = -w - 1
+            nw += 1
+    return nw
+
+
+@njit(cache=True, _nrt=False)
+def _new_pockets(s, nn, nw, nbr, walls, reach, r_lo, r_hi, npk, pa, pb, pc, ps, pmax, pblk,
+                 hk, hv, off, nh, tk, tv, X, Y, Z, R, head, nxt, glo, inv_h, gn, wall_n,
+                 wall_d, cyl, box, top, work, pos):
+    """The live pockets of the triples (s, a, b), (s, a, wall), (s, wall, wall), stored from
+    pocket npk on and pushed on the last class's heap (room for 2 per pair reserved);
+    returns the new pocket count."""
+    top_c = N_CLASSES - 1
+    o = off[top_c]
+    for ia in range(nn + nw):
+        ca = nbr[ia] if ia < nn else walls[ia - nn]
+        for ib in range(ia + 1, nn + nw):
+            cb = nbr[ib] if ib < nn else walls[ib - nn]
+            if ca >= 0 and cb >= 0:
+                d = R[ca] + R[cb] + 2 * reach
+                dx, dy, dz = X[ca] - X[cb], Y[ca] - Y[cb], Z[ca] - Z[cb]
+                if dx * dx + dy * dy + dz * dz > d * d:
+                    continue
+            elif ca >= 0 or cb >= 0:
+                sp = ca if ca >= 0 else cb
+                wl = cb if ca >= 0 else ca
+                w = -wl - 1
+                if cyl[2] > 0 and w == 1:
+                    dist = cyl[2] - math.sqrt((X[sp] - cyl[0]) ** 2 + (Y[sp] - cyl[1]) ** 2) - R[sp]
+                else:
+                    dist = (wall_n[w, 0] * X[sp] + wall_n[w, 1] * Y[sp] + wall_n[w, 2] * Z[sp]
+                            - wall_d[w] - R[sp])
+                if dist > 2 * reach:
+                    continue
+            for sg in (-1.0, 1.0):
+                alive, key = _classify(s, ca, cb, sg, r_lo, r_hi, X, Y, Z, R, head, nxt,
+                                       glo, inv_h, gn, wall_n, wall_d, cyl, box, top, work, pos)
+                if not alive:
+                    continue
+                pa[npk], pb[npk], pc[npk], ps[npk], pmax[npk] = s, ca, cb, sg, np.inf
+                pblk[npk] = -1
+                nh[top_c] = _heap_push(hk, hv, o, nh[top_c], key, npk)
+                npk += 1
+    tk[top_c], tv[top_c] = (hk[o], hv[o]) if nh[top_c] > 0 else (np.inf, -1)
+    return npk
+
+
+@njit(cache=True)
+def _grown(a, n, size):
+    """a copy of a[:n] in an array of ``size``."""
+    b = np.empty(size, a.dtype)
+    b[:n] = a[:n]
+    return b
+
+
+@njit(cache=True)
+def _reserve(hk, hv, off, cap, nh, used, c, need):
+    """Room for ``need`` more entries on class c's heap: (hk, hv, used), the pool grown
+    and compacted when the class's segment must move and the pool is full."""
+    if cap[c] - nh[c] >= need:
+        return hk, hv, used
+    new = max(2 * cap[c], nh[c] + need)
+    if used + new > hk.shape[0]:
+        size = 2 * (cap.sum() + new)
+        k2 = np.empty(size)
+        v2 = np.empty(size, np.int64)
+        used = 0
+        for d in range(N_CLASSES):
+            k2[used:used + nh[d]] = hk[off[d]:off[d] + nh[d]]
+            v2[used:used + nh[d]] = hv[off[d]:off[d] + nh[d]]
+            off[d] = used
+            used += cap[d]
+        hk, hv = k2, v2
+    hk[used:used + nh[c]] = hk[off[c]:off[c] + nh[c]]
+    hv[used:used + nh[c]] = hv[off[c]:off[c] + nh[c]]
+    off[c] = used
+    cap[c] = new
+    return hk, hv, used + new
+
+
 @njit(cache=True)
 def deposit_kernel(radii, n_obs, X, Y, Z, R, wall_n, wall_d, nwall, cyl, box, top,
                    glo, inv_h, gn, reach, floor_pts, max_pockets, support_obs):
@@ -373,6 +540,9 @@ def deposit_kernel(radii, n_obs, X, Y, Z, R, wall_n, wall_d, nwall, cyl, box, to
     X, Y, Z, R hold the ``n_obs`` obstacles first and receive the grains after them.
     Returns (number placed, status, number dropped): status 0 ok, 1 no room below the top,
     2 pocket memory; "dropped" grains found no pocket and were dropped vertically.
+
+    The loops run in the functions above, which take plain arrays and no reference counts
+    (``_nrt=False``); this one only allocates and grows.
     """
     nb_tot = X.shape[0]
     head = -np.ones(gn[0] * gn[1] * gn[2], np.int64)
@@ -381,11 +551,12 @@ def deposit_kernel(radii, n_obs, X, Y, Z, R, wall_n, wall_d, nwall, cyl, box, to
     pos = np.zeros(3)
     r_lo, r_hi = radii.min(), radii.max()
     ub = _class_bounds(r_lo, r_hi)
-    kl = List()
-    vl = List()
-    for c in range(N_CLASSES):
-        kl.append(np.empty(256))
-        vl.append(np.empty(256, np.int64))
+    # the classes' heaps: segments [off[c], off[c] + cap[c]) of one pool
+    cap = np.full(N_CLASSES, 256, np.int64)
+    off = np.arange(N_CLASSES) * 256
+    used = N_CLASSES * 256
+    hk = np.empty(2 * used)
+    hv = np.empty(2 * used, np.int64)
     nh = np.zeros(N_CLASSES, np.int64)
     tk = np.full(N_CLASSES, np.inf)         # each class's lowest key and its pocket
     tv = np.full(N_CLASSES, -1, np.int64)
@@ -407,72 +578,16 @@ def deposit_kernel(radii, n_obs, X, Y, Z, R, wall_n, wall_d, nwall, cyl, box, to
         if s >= n_obs:
             r = radii[s - n_obs]
             R[s] = r
-            # pop pockets in key order until no lower one can beat the best found
-            best, bestz, bestk, nback = -1, np.inf, 0.0, 0
-            # a stable pocket rises at least as fast as the grain grows (dz/dr = Σλ_k >= 1 with
-            # e_z = Σ λ_k n_k, |n_k| = 1), so key + (r − r_lo) bounds its height from below
-            lift = r - r_lo
-            # (the lowest centre wins, ties to the lowest pocket id, whatever the order of
-            # the classes; a class is only looked at if it may hold pockets taking r)
-            c0 = 0
-            while ub[c0] <= r:
-                c0 += 1
-            while True:
-                # the lowest pocket of the classes that may take r
-                cl = -1
-                for c in range(c0, N_CLASSES):
-                    if nh[c] > 0 and (cl < 0 or _before(tk[c], tv[c], tk[cl], tv[cl])):
-                        cl = c
-                if cl < 0 or tk[cl] + lift > bestz:
-                    break
-                if True:
-                    key, v = _pop_class(kl, vl, nh, tk, tv, cl)
-                    a, b, c, sg = pa[v], pb[v], pc[v], ps[v]
-                    keep, cand = True, False
-                    if r < pmax[v] and solve_pocket(a, b, c, sg, r, X, Y, Z, R, wall_n, wall_d,
-                                                    cyl, work, pos):
-                        if pos[2] <= bestz and inside(pos[0], pos[1], pos[2], r, box, cyl, top):
-                            # the sphere that blocked it last still does (spheres are never
-                            # removed): nothing new is learnt, no grid search
-                            q = pblk[v]
-                            if q >= 0 and _overlaps(pos[0], pos[1], pos[2], r, X[q], Y[q], Z[q],
-                                                    R[q]):
-                                if Z[q] > pos[2] and r < pmax[v]:
-                                    pmax[v] = r
-                            else:
-                                q = overlapping(pos[0], pos[1], pos[2], r, X, Y, Z, R, head, nxt,
-                                                glo, inv_h, gn)
-                                if q >= 0:
-                                    pblk[v] = q
-                                    # a sphere above the centre: larger grains, which sit
-                                    # higher, hit it too (skip them); dead if the smallest
-                                    # grain no longer fits
-                                    if Z[q] > pos[2] and r < pmax[v]:
-                                        pmax[v] = r
-                                    keep, key = _classify(a, b, c, sg, r_lo, r_hi, X, Y, Z, R,
-                                                          head, nxt, glo, inv_h, gn, wall_n,
-                                                          wall_d, cyl, box, top, work, pos)
-                                elif (pos[2] < bestz or v < best) and stable(
-                                        a, b, c, pos[0], pos[1], pos[2], r, X, Y, Z, R, wall_n,
-                                        cyl, work):
-                                    cand = True
-                    if cand:
-                        if best >= 0:
-                            back[nback], backk[nback] = best, bestk
-                            nback += 1
-                        best, bestz, bestk = v, pos[2], key
-                    elif keep:
-                        back[nback], backk[nback] = v, key
-                        nback += 1
-                    if nback >= back.shape[0] - 1:
-                        nb2 = np.empty(2 * back.shape[0], np.int64)
-                        nb2[:nback] = back[:nback]
-                        back = nb2
-                        bk2 = np.empty(2 * backk.shape[0])
-                        bk2[:nback] = backk[:nback]
-                        backk = bk2
-            for q in range(nback):
-                _push_class(kl, vl, nh, tk, tv, _class_of(pmax[back[q]], ub), backk[q], back[q])
+            live = nh.sum()
+            if back.shape[0] < live + 1:
+                back = np.empty(2 * (live + 1), np.int64)
+                backk = np.empty(2 * (live + 1))
+            best, nback = _best_pocket(r, r_lo, r_hi, ub, hk, hv, off, nh, tk, tv, pa, pb, pc,
+                                       ps, pmax, pblk, back, backk, X, Y, Z, R, head, nxt, glo,
+                                       inv_h, gn, wall_n, wall_d, cyl, box, top, work, pos)
+            for c in range(N_CLASSES):
+                hk, hv, used = _reserve(hk, hv, off, cap, nh, used, c, nback)
+            _push_back(back, backk, nback, pmax, ub, hk, hv, off, nh, tk, tv)
             if best >= 0:
                 solve_pocket(pa[best], pb[best], pc[best], ps[best], r, X, Y, Z, R,
                              wall_n, wall_d, cyl, work, pos)
@@ -499,85 +614,23 @@ def deposit_kernel(radii, n_obs, X, Y, Z, R, wall_n, wall_d, nwall, cyl, box, to
         if s < n_obs and not support_obs:
             continue
         # new pockets with s: neighbours within reach, walls within reach
-        xs, ys, zs, rs = X[s], Y[s], Z[s], R[s]
-        nn = 0
-        span = int(math.ceil((2 * (r_hi if r_hi > rs else rs) + 2 * reach) * inv_h))
-        i0, j0, k0 = _cell(xs, glo[0], inv_h, gn[0]), _cell(ys, glo[1], inv_h, gn[1]), _cell(zs, glo[2], inv_h, gn[2])
-        for i in range(max(i0 - span, 0), min(i0 + span + 1, gn[0])):
-            for j in range(max(j0 - span, 0), min(j0 + span + 1, gn[1])):
-                for k in range(max(k0 - span, 0), min(k0 + span + 1, gn[2])):
-                    q = head[(i * gn[1] + j) * gn[2] + k]
-                    while q >= 0:
-                        if q != s and (support_obs or q >= n_obs):
-                            d = rs + R[q] + 2 * reach
-                            dx, dy, dz = xs - X[q], ys - Y[q], zs - Z[q]
-                            if dx * dx + dy * dy + dz * dz <= d * d:
-                                if nn >= nbr.shape[0]:
-                                    n2 = np.empty(2 * nbr.shape[0], np.int64)
-                                    n2[:nn] = nbr[:nn]
-                                    nbr = n2
-                                nbr[nn] = q
-                                nn += 1
-                        q = nxt[q]
-        nw = 0
-        for w in range(nwall):
-            if cyl[2] > 0 and w == 1:
-                dist = cyl[2] - math.sqrt((xs - cyl[0]) ** 2 + (ys - cyl[1]) ** 2) - rs
-            else:
-                dist = wall_n[w, 0] * xs + wall_n[w, 1] * ys + wall_n[w, 2] * zs - wall_d[w] - rs
-            if dist <= 2 * reach:
-                walls[nw] = -w - 1
-                nw += 1
-        # candidate triples: (s, a, b), (s, a, wall), (s, wall, wall)
-        for ia in range(nn + nw):
-            ca = nbr[ia] if ia < nn else walls[ia - nn]
-            for ib in range(ia + 1, nn + nw):
-                cb = nbr[ib] if ib < nn else walls[ib - nn]
-                if ca >= 0 and cb >= 0:
-                    d = R[ca] + R[cb] + 2 * reach
-                    dx, dy, dz = X[ca] - X[cb], Y[ca] - Y[cb], Z[ca] - Z[cb]
-                    if dx * dx + dy * dy + dz * dz > d * d:
-                        continue
-                elif ca >= 0 or cb >= 0:
-                    sp = ca if ca >= 0 else cb
-                    wl = cb if ca >= 0 else ca
-                    w = -wl - 1
-                    if cyl[2] > 0 and w == 1:
-                        dist = cyl[2] - math.sqrt((X[sp] - cyl[0]) ** 2 + (Y[sp] - cyl[1]) ** 2) - R[sp]
-                    else:
-                        dist = (wall_n[w, 0] * X[sp] + wall_n[w, 1] * Y[sp] + wall_n[w, 2] * Z[sp]
-                                - wall_d[w] - R[sp])
-                    if dist > 2 * reach:
-                        continue
-                for sg in (-1.0, 1.0):
-                    alive, key = _classify(s, ca, cb, sg, r_lo, r_hi, X, Y, Z, R, head, nxt,
-                                           glo, inv_h, gn, wall_n, wall_d, cyl, box, top, work, pos)
-                    if not alive:
-                        continue
-                    if npk >= pcap:
-                        if pcap >= max_pockets:
-                            return n_placed, 2, n_drop
-                        pcap *= 2
-                        t1 = np.empty(pcap, np.int64)
-                        t1[:npk] = pa[:npk]
-                        pa = t1
-                        t2 = np.empty(pcap, np.int64)
-                        t2[:npk] = pb[:npk]
-                        pb = t2
-                        t3 = np.empty(pcap, np.int64)
-                        t3[:npk] = pc[:npk]
-                        pc = t3
-                        t4 = np.empty(pcap)
-                        t4[:npk] = ps[:npk]
-                        ps = t4
-                        t5 = np.empty(pcap)
-                        t5[:npk] = pmax[:npk]
-                        pmax = t5
-                        t6 = np.empty(pcap, np.int64)
-                        t6[:npk] = pblk[:npk]
-                        pblk = t6
-                    pa[npk], pb[npk], pc[npk], ps[npk], pmax[npk] = s, ca, cb, sg, np.inf
-                    pblk[npk] = -1
-                    _push_class(kl, vl, nh, tk, tv, N_CLASSES - 1, key, npk)
-                    npk += 1
+        nn = _neighbours(s, n_obs, support_obs, reach, r_hi, X, Y, Z, R, head, nxt, glo,
+                         inv_h, gn, nbr)
+        while nn < 0:
+            nbr = np.empty(2 * nbr.shape[0], np.int64)
+            nn = _neighbours(s, n_obs, support_obs, reach, r_hi, X, Y, Z, R, head, nxt, glo,
+                             inv_h, gn, nbr)
+        nw = _walls_near(s, reach, X, Y, Z, R, wall_n, wall_d, nwall, cyl, walls)
+        need = (nn + nw) * (nn + nw - 1)          # at most 2 pockets per pair
+        if npk + need > pcap:
+            if npk + need > max_pockets and pcap >= max_pockets:
+                return n_placed, 2, n_drop
+            new = max(2 * pcap, npk + need)
+            pa, pb, pc = _grown(pa, npk, new), _grown(pb, npk, new), _grown(pc, npk, new)
+            ps, pmax, pblk = _grown(ps, npk, new), _grown(pmax, npk, new), _grown(pblk, npk, new)
+            pcap = new
+        hk, hv, used = _reserve(hk, hv, off, cap, nh, used, N_CLASSES - 1, need)
+        npk = _new_pockets(s, nn, nw, nbr, walls, reach, r_lo, r_hi, npk, pa, pb, pc, ps,
+                           pmax, pblk, hk, hv, off, nh, tk, tv, X, Y, Z, R, head, nxt, glo,
+                           inv_h, gn, wall_n, wall_d, cyl, box, top, work, pos)
     return n_placed, 0, n_drop

@@ -338,9 +338,36 @@ def _classify(a, b, c, sg, r_lo, r_hi, X, Y, Z, R, head, nxt, glo, inv_h, gn,
     return False, 0.0
 
 
+#: Every sample radius ub[0..N_CLASSES-2] may fit (a new pocket's mask).
+ALL_SAMPLES = (1 << (N_CLASSES - 1)) - 1
+
+
+@njit(cache=True, _nrt=False)
+def _fit_above(a, b, c, sg, r, mask, ub, X, Y, Z, R, head, nxt, glo, inv_h, gn, wall_n,
+               wall_d, cyl, box, top, work, pos):
+    """(pmax, mask) of a pocket where a grain of radius r does not fit: the sample radii
+    ub[j] > r are tried from the largest down until one fits (a sample that does not fit
+    never will: spheres are only added, and the rest is fixed by the supports), and pmax is
+    the next class bound above it (r when none fits).  A grain between two samples that fits
+    where neither does is the only one this misses."""
+    for j in range(N_CLASSES - 2, -1, -1):
+        if ub[j] <= r:
+            break
+        if not (mask >> j) & 1:
+            continue
+        rj = ub[j]
+        if (solve_pocket(a, b, c, sg, rj, X, Y, Z, R, wall_n, wall_d, cyl, work, pos)
+                and inside(pos[0], pos[1], pos[2], rj, box, cyl, top)
+                and stable(a, b, c, pos[0], pos[1], pos[2], rj, X, Y, Z, R, wall_n, cyl, work)
+                and free(pos[0], pos[1], pos[2], rj, X, Y, Z, R, head, nxt, glo, inv_h, gn)):
+            return ub[j + 1], mask
+        mask &= ~(1 << j)
+    return r, mask
+
+
 @njit(cache=True, _nrt=False)
 def _best_pocket(r, r_lo, r_hi, ub, hk, hv, off, nh, tk, tv, pa, pb, pc, ps, pmax, pblk,
-                 back, backk, X, Y, Z, R, head, nxt, glo, inv_h, gn, wall_n, wall_d, cyl,
+                 pmask, back, backk, X, Y, Z, R, head, nxt, glo, inv_h, gn, wall_n, wall_d, cyl,
                  box, top, work, pos):
     """The lowest pocket that takes a grain of radius r: (pocket or −1, count of the
     pockets to push back, in back/backk with their keys; back holds every heap entry).
@@ -369,10 +396,12 @@ def _best_pocket(r, r_lo, r_hi, ub, hk, hv, off, nh, tk, tv, pa, pb, pc, ps, pma
         else:
             tk[cl], tv[cl] = np.inf, -1
         a, b, c, sg = pa[v], pb[v], pc[v], ps[v]
-        keep, cand = True, False
+        keep, cand, fit = True, False, False
         if r < pmax[v] and solve_pocket(a, b, c, sg, r, X, Y, Z, R, wall_n, wall_d, cyl, work,
                                         pos):
-            if pos[2] <= bestz and inside(pos[0], pos[1], pos[2], r, box, cyl, top):
+            if pos[2] <= bestz and not inside(pos[0], pos[1], pos[2], r, box, cyl, top):
+                fit = True
+            elif pos[2] <= bestz:
                 # the sphere that blocked it last still does (spheres are never removed):
                 # nothing new is learnt, no grid search
                 q = pblk[v]
@@ -388,12 +417,18 @@ def _best_pocket(r, r_lo, r_hi, ub, hk, hv, off, nh, tk, tv, pa, pb, pc, ps, pma
                         # too (skip them); dead if the smallest grain no longer fits
                         if Z[q] > pos[2] and r < pmax[v]:
                             pmax[v] = r
+                        else:
+                            fit = True
                         keep, key = _classify(a, b, c, sg, r_lo, r_hi, X, Y, Z, R, head, nxt,
                                               glo, inv_h, gn, wall_n, wall_d, cyl, box, top,
                                               work, pos)
                     elif (pos[2] < bestz or v < best) and stable(
                             a, b, c, pos[0], pos[1], pos[2], r, X, Y, Z, R, wall_n, cyl, work):
                         cand = True
+        if fit and keep and r < pmax[v]:
+            pmax[v], pmask[v] = _fit_above(a, b, c, sg, r, pmask[v], ub, X, Y, Z, R, head, nxt,
+                                           glo, inv_h, gn, wall_n, wall_d, cyl, box, top, work,
+                                           pos)
         if cand:
             if best >= 0:
                 back[nback], backk[nback] = best, bestk
@@ -459,7 +494,7 @@ def _walls_near(s, reach, X, Y, Z, R, wall_n, wall_d, nwall, cyl, walls):
 
 @njit(cache=True, _nrt=False)
 def _new_pockets(s, nn, nw, nbr, walls, reach, r_lo, r_hi, npk, pa, pb, pc, ps, pmax, pblk,
-                 hk, hv, off, nh, tk, tv, X, Y, Z, R, head, nxt, glo, inv_h, gn, wall_n,
+                 pmask, hk, hv, off, nh, tk, tv, X, Y, Z, R, head, nxt, glo, inv_h, gn, wall_n,
                  wall_d, cyl, box, top, work, pos):
     """The live pockets of the triples (s, a, b), (s, a, wall), (s, wall, wall), stored from
     pocket npk on and pushed on the last class's heap (room for 2 per pair reserved);
@@ -493,6 +528,7 @@ def _new_pockets(s, nn, nw, nbr, walls, reach, r_lo, r_hi, npk, pa, pb, pc, ps, 
                     continue
                 pa[npk], pb[npk], pc[npk], ps[npk], pmax[npk] = s, ca, cb, sg, np.inf
                 pblk[npk] = -1
+                pmask[npk] = ALL_SAMPLES
                 nh[top_c] = _heap_push(hk, hv, o, nh[top_c], key, npk)
                 npk += 1
     tk[top_c], tv[top_c] = (hk[o], hv[o]) if nh[top_c] > 0 else (np.inf, -1)
@@ -567,6 +603,7 @@ def deposit_kernel(radii, n_obs, X, Y, Z, R, wall_n, wall_d, nwall, cyl, box, to
     ps = np.empty(pcap, np.float64)
     pmax = np.empty(pcap)          # grains this large or larger overlap something there
     pblk = np.empty(pcap, np.int64)  # the sphere that last blocked the pocket, or -1
+    pmask = np.empty(pcap, np.int64)  # bit j: a grain of radius ub[j] may still fit
     npk = 0
     nbr = np.empty(4096, np.int64)
     back = np.empty(4096, np.int64)
@@ -583,7 +620,7 @@ def deposit_kernel(radii, n_obs, X, Y, Z, R, wall_n, wall_d, nwall, cyl, box, to
                 back = np.empty(2 * (live + 1), np.int64)
                 backk = np.empty(2 * (live + 1))
             best, nback = _best_pocket(r, r_lo, r_hi, ub, hk, hv, off, nh, tk, tv, pa, pb, pc,
-                                       ps, pmax, pblk, back, backk, X, Y, Z, R, head, nxt, glo,
+                                       ps, pmax, pblk, pmask, back, backk, X, Y, Z, R, head, nxt, glo,
                                        inv_h, gn, wall_n, wall_d, cyl, box, top, work, pos)
             for c in range(N_CLASSES):
                 hk, hv, used = _reserve(hk, hv, off, cap, nh, used, c, nback)
@@ -628,9 +665,10 @@ def deposit_kernel(radii, n_obs, X, Y, Z, R, wall_n, wall_d, nwall, cyl, box, to
             new = max(2 * pcap, npk + need)
             pa, pb, pc = _grown(pa, npk, new), _grown(pb, npk, new), _grown(pc, npk, new)
             ps, pmax, pblk = _grown(ps, npk, new), _grown(pmax, npk, new), _grown(pblk, npk, new)
+            pmask = _grown(pmask, npk, new)
             pcap = new
         hk, hv, used = _reserve(hk, hv, off, cap, nh, used, N_CLASSES - 1, need)
         npk = _new_pockets(s, nn, nw, nbr, walls, reach, r_lo, r_hi, npk, pa, pb, pc, ps,
-                           pmax, pblk, hk, hv, off, nh, tk, tv, X, Y, Z, R, head, nxt, glo,
+                           pmax, pblk, pmask, hk, hv, off, nh, tk, tv, X, Y, Z, R, head, nxt, glo,
                            inv_h, gn, wall_n, wall_d, cyl, box, top, work, pos)
     return n_placed, 0, n_drop

@@ -342,22 +342,24 @@ def test_neighbour_contact_keeps_the_beads_of_slack_links_apart(tmp_path):
     assert short[True].min() > 0.999
 
 
-@pytest.mark.parametrize("how, at", [("sigint", 250), ("crash", 250), ("sigint", 780)])
+@pytest.mark.parametrize("how, at", [("sigint", 250), ("crash", 250), ("sigint", "rest")])
 def test_a_deposit_resumed_from_its_checkpoint_ends_as_if_it_never_stopped(how, at,
                                                                            monkeypatch,
                                                                            tmp_path):
-    """The deposit in the mould (box sample, scale 0.02, at rest after 780 steps) stopped at
-    step 250 by Ctrl-C (checkpoint at 250) or by a crash (the checkpoint of step 200 left,
-    the history written to 240), or by Ctrl-C in step 780, the last of a chunk and the one
-    it comes to rest on; then called again with ``resume=True``: the result and the whole
-    history are bit for bit the run's that never stopped."""
+    """The deposit in the mould (box sample, scale 0.02) stopped at step 250 by Ctrl-C
+    (checkpoint at 250) or by a crash (the checkpoint of step 200 left, the history written
+    to 240), or by Ctrl-C in the step it comes to rest on, the last of a chunk; then called
+    again with ``resume=True``: the result and the whole history are bit for bit the run's
+    that never stopped."""
 
     import engine.experiments.common as common
     from engine.io import load_extra, read_history
 
     kw = dict(sample="box", progress=False, checkpoint_every=100)
     ref = gravity_deposit(0.02, history=str(tmp_path / "a.h5"), **kw)
-    assert ref.convergence["steps"] == 780
+    assert ref.at_rest and ref.convergence["steps"] > 300
+    if at == "rest":
+        at = ref.convergence["steps"]
     with monkeypatch.context() as mp:
         stop_runs_at(mp, at, how)
         if how == "sigint":

@@ -16,6 +16,7 @@ import json
 import os
 import shutil
 import subprocess
+import warnings
 
 import numpy as np
 import pytest
@@ -187,7 +188,8 @@ def exported(tmp_path_factory):
 
     out = tmp_path_factory.mktemp("export")
     h = out / "cyl.h5"
-    with pytest.warns(RuntimeWarning, match="isotropic stage did not reach"):
+    with warnings.catch_warnings():            # a short run: its stage and overlap warnings
+        warnings.simplefilter("ignore", RuntimeWarning)
         res = cylinder_triaxial(0.05, axial_strain=0.005, iso_max_steps=100, ramp_steps=50,
                                 history=str(h), frames=20, progress=False)
     pvd = export_history(h, out / "series", name="cyl", progress=False)

@@ -30,8 +30,14 @@ def core_fraction(c, r, cyl):
     m = 4 * r.max()
     top = (c[:, 2] + r).max()
     rr = np.hypot(c[:, 0], c[:, 1])
+    if top <= 2 * m:
+        return None                     # a pile lower than 8 r_max has no core by this rule
     k = (rr < cyl.radius - m) & (c[:, 2] > m) & (c[:, 2] < top - m)
     return float((4 / 3 * np.pi * r[k] ** 3).sum() / (np.pi * (cyl.radius - m) ** 2 * (top - 2 * m)))
+
+
+def _fraction_text(f):
+    return "- (no core)" if f is None else f"{f:.3f}"
 
 
 def main():
@@ -52,7 +58,7 @@ def main():
                    core_solid_fraction=core_fraction(c, r, cyl))
         out["deposit"].append(row)
         print(f"deposit {n:6d} grains: {dt:6.2f} s  {n / dt:8.0f} grains/s "
-              f"({row['vs_lmgc90']:.1f}x LMGC90's 342/s)  core solid fraction {row['core_solid_fraction']:.3f}")
+              f"({row['vs_lmgc90']:.1f}x LMGC90's 342/s)  core solid fraction {_fraction_text(row['core_solid_fraction'])}")
     for name in ("cylinder", "box", "slope"):
         p = PAPER[name]
         s = paper_sample(name, 1.0, seed=0)

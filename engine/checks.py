@@ -22,11 +22,9 @@ import annotated_types as at
 import numpy as np
 from pydantic import BaseModel, ValidationError, field_validator
 
+from .errors import InputError
+
 __all__ = ["Checked", "NumbersOnly", "InputError", "allowed", "describe", "explain"]
-
-
-class InputError(ValueError):
-    """A validated record refused its input; the message names every field at fault."""
 
 
 def _num(x) -> str:

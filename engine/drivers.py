@@ -14,6 +14,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from .errors import ConfinementError  # noqa: F401  (its home until 2026-12-05)
+
 
 def _vector(value, what: str) -> np.ndarray:
     v = np.asarray(value, dtype=float)
@@ -45,11 +47,6 @@ def drive_velocities(model, state, t: float) -> None:
     for d in model.drives:
         if d.kind == "velocity":
             state.vel6[d.body, :3] = _vector(d.at(t), f"velocity drive on body {d.body} at t={t:g} s")
-
-
-class ConfinementError(RuntimeError):
-    """A free-surface confinement lost its sample: grains left the membrane and its radius
-    ran away (:class:`Confinement`'s ``max_growth``)."""
 
 
 class Confinement:

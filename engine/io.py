@@ -37,6 +37,7 @@ import h5py
 import numpy as np
 
 from . import laws as _laws
+from .errors import FileProblem, FormatError, RunLocked, WriteFailed
 from .model import SPHERE, Drive, Model, Options
 from .analysis.energy import kinetic_energy  # noqa: F401  (engine.io.kinetic_energy)
 from .analysis.network import wall_forces  # noqa: F401  (engine.io.wall_forces)
@@ -48,31 +49,8 @@ FORMAT_NAME = "nscd-workbench"
 FORMAT_VERSION = 1
 
 
-class FormatError(ValueError):
-    """The file is not a readable nscd-workbench HDF5 file of a supported version."""
-
-
 class _BadArgument(ValueError):
     """A bad argument of a reading function (not a problem of the file)."""
-
-
-class FileProblem(OSError):
-    """An OSError whose ``str()`` is one line: ``FILE: what happened`` (the base of
-    :class:`WriteFailed` and :class:`RunLocked`, which ``nscd`` tells apart: exit 1 and 2)."""
-
-    def __str__(self) -> str:
-        return f"{self.filename}: {self.strerror}"
-
-
-class WriteFailed(FileProblem):
-    """A file could not be written: a full disk (``errno.ENOSPC``), a quota, an I/O error.
-
-    Raised by :class:`History` (which then stops writing: the file keeps, marked complete,
-    every record and frame of its last successful flush) and by :func:`save` (the older
-    checkpoint is kept).  ``str()`` is one line naming the file and the cause."""
-
-    def __init__(self, path, errno_: int | None, what: str):
-        super().__init__(errno_, what, os.fspath(path))
 
 
 def _errno_of(e: BaseException) -> int | None:
@@ -162,10 +140,6 @@ class _Headroom:
                 os.remove(self.path)
             except FileNotFoundError:
                 pass
-
-
-class RunLocked(FileProblem):
-    """Another process is writing this history (its lock, ``.NAME.lock``, is held)."""
 
 
 class _Lock:

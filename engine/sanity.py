@@ -24,6 +24,7 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
+from .errors import PhysicsWarning  # noqa: F401  (its home until 2026-12-05)
 from .model import CAP_BOTTOM, CAP_TOP, FREE, PLANE
 
 #: Overlap [fraction of the smaller radius] above which a run's summary warns.
@@ -36,11 +37,6 @@ OVERLAP_WARN = 0.05
 #: 1e-6 is a margin for roundoff).  Rigid links are looked at for a stretch (prestrain) at
 #: the start of a run only.
 ENERGY_WARN = 1e-6
-
-
-class PhysicsWarning(RuntimeWarning):
-    """A run left the range where its results can be trusted (overlaps above
-    :data:`OVERLAP_WARN`)."""
 
 
 @njit(cache=True)

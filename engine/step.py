@@ -29,6 +29,7 @@ from typing import Callable, Iterable
 import numpy as np
 
 from . import stop as _stop
+from .errors import NonConvergenceWarning, SimulationError
 from .contact import detect, late_contacts_possible, restore_pairs
 from .integrator import free_velocity, update
 from .sanity import (ENERGY_WARN, OVERLAP_WARN, THROUGH, PhysicsWarning, energy_sources,
@@ -39,14 +40,6 @@ from .state import ContactBuffers, StepStats
 
 #: Most extra solves of one step for contacts closed by the solve itself (:func:`step`).
 LATE_PASSES = 3
-
-
-class SimulationError(RuntimeError):
-    """The simulation produced a non-finite value (step and bodies named)."""
-
-
-class NonConvergenceWarning(RuntimeWarning):
-    """Some steps of a run hit ``max_iter`` before the NLGS residual reached ``tol``."""
 
 
 class _Undo:

@@ -10,6 +10,7 @@ from ..threads import numba_threads
 from .broadphase import (build_pairs_ordered, build_pairs_parallel, cell_sort, max_displacement,
                          max_speed)
 from .narrowphase import late_pairs_exist, narrowphase, narrowphase_parallel, tangent_frame
+from ..errors import SimulationError
 
 #: Fewest spheres for which ``threads > 1`` also runs the broadphase and the sphere–sphere
 #: narrowphase on several threads (below it, one thread: the threads' start-up costs more
@@ -66,7 +67,6 @@ def rebuild_pairs(model, state, lookahead: float = 0.0) -> None:
     # NaN/Inf, or so far away (1e6 m) that the grid extent overflows: the run blew up
     bad = ~(np.abs(state.position[model.sphere_ids]) < 1e6).all(axis=1)
     if bad.any():
-        from ..step import SimulationError
         ids = model.sphere_ids[bad]
         raise SimulationError(
             f"step {state.step + 1}: the predicted positions of {bad.sum()} bodies are not "

@@ -19,17 +19,10 @@ import numpy as np
 from ..drivers import ConfinementError  # noqa: F401  (re-exported: engine.experiments)
 from ..laws import DEFAULT_STIFFNESS
 from ..scene import check_bool  # noqa: F401  (the experiments import it from here)
-from ..step import NonConvergenceWarning, run
+from ..errors import ConvergenceError, NonConvergenceWarning
+from ..step import run
 
 __all__ = ["TestResult", "ConvergenceError", "inertial_rate", "check_scale"]
-
-
-class ConvergenceError(RuntimeError):
-    """Too many steps of a test did not converge; ``result`` holds what was recorded."""
-
-    def __init__(self, message, result):
-        super().__init__(message)
-        self.result = result
 
 
 @dataclass

@@ -19,21 +19,11 @@ from __future__ import annotations
 
 import numpy as np
 
+from ..errors import DepositError
 from ._deposit_kernel import deposit_kernel
 from .containers import Box, Cylinder
 
 __all__ = ["geometric", "DepositError"]
-
-
-class DepositError(ValueError):
-    """The container could not take every grain.
-
-    Attributes ``placed`` (number of grains placed), ``centers`` (placed, 3) [m] and
-    ``radii`` (placed,) [m] hold what was placed, in placement order."""
-
-    def __init__(self, message, placed, centers, radii):
-        super().__init__(message)
-        self.placed, self.centers, self.radii = placed, centers, radii
 
 
 def _setup(container, r_grain_max, r_all_max):

@@ -434,7 +434,7 @@ def _check_model(m: Model) -> None:
 # -- state -------------------------------------------------------------------------------------
 #: State fields written by hand (the rest is generic: arrays, then plain numbers).
 _STATE_SPECIAL = ("pairs", "pairs_ref", "n_pairs", "contacts_buf", "stats", "time", "step",
-                  "last_dt", "time_compensation")
+                  "last_dt", "time_compensation", "workspace")
 
 
 def _write_state(g, state: State) -> None:

@@ -107,6 +107,38 @@ class ContactBuffers:
             setattr(self, name, np.zeros((self.cap,) + shape, dtype=dtype))
 
 
+class Workspace:
+    """What a step keeps between calls to save work, and nothing else: never saved in a
+    file, and a copy or a pickle of it is empty (each field is rebuilt when missing, with
+    the same result).
+
+    Attributes
+    ----------
+    free_vel : (nb, 6) float64 or None
+        The free velocities of the last step (Eq. 4), before its solve: kept for the late
+        contact check (:func:`engine.contact.late_contacts_possible`).
+    sphere_order : (pairs_ref, (n_spheres,) int32) or None
+        The spheres in the cell order of the broadphase build at ``pairs_ref`` (the order
+        the narrowphase visits sphere–wall pairs in), valid while ``state.pairs_ref`` is
+        that array.
+    anderson : engine.solver.anderson.Workspace or None
+        The Anderson mixing's history buffers (``Options.anderson > 0``).
+    """
+
+    __slots__ = ("free_vel", "sphere_order", "anderson")
+
+    def __init__(self):
+        self.free_vel = None
+        self.sphere_order = None
+        self.anderson = None
+
+    def __reduce__(self):
+        return (Workspace, ())
+
+    def __repr__(self) -> str:
+        return "Workspace()"
+
+
 @dataclass
 class State:
     """Mutable state of a simulation.
@@ -158,6 +190,8 @@ class State:
         Length of the last step (0 before the first), to turn impulses into forces.
     time_compensation : float [s]
         Running compensation of the Kahan sum that accumulates ``time``.
+    workspace : Workspace
+        What a step keeps between calls to save work (not saved; empty in a copy).
     """
 
     position: np.ndarray
@@ -183,6 +217,7 @@ class State:
     link_excluded_next: np.ndarray = None
     last_dt: float = 0.0
     time_compensation: float = 0.0
+    workspace: Workspace = field(default_factory=Workspace, repr=False, compare=False)
 
     def __post_init__(self):
         nb = self.position.shape[0]
@@ -230,16 +265,10 @@ class State:
         return ContactsView(self)
 
     def copy(self) -> "State":
-        """A deep copy (for restarts and comparisons), without the solver's scratch
-        buffers (``_anderson``: :class:`engine.solver.anderson.Workspace`)."""
+        """A deep copy (for restarts and comparisons), with an empty :class:`Workspace`."""
         import copy
 
-        scratch = self.__dict__.pop("_anderson", None)
-        try:
-            return copy.deepcopy(self)
-        finally:
-            if scratch is not None:
-                self._anderson = scratch
+        return copy.deepcopy(self)
 
 
 class ContactsView:

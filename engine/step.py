@@ -74,7 +74,7 @@ class _Undo:
                 b = self.saved[name] = np.empty_like(a)
             np.copyto(b, a)
         self.pairs = (state.pairs_ref, state.pairs_margin, state.n_pairs,
-                      state.__dict__.get("_sphere_order"))
+                      state.workspace.sphere_order)
         c = state.contacts_buf
         if self.spare is None or self.spare is c:
             self.spare = ContactBuffers(c.cap)
@@ -88,9 +88,7 @@ class _Undo:
             if ref is not None:
                 restore_pairs(model, state, ref, margin, n_pairs)
             state.pairs_ref, state.pairs_margin, state.n_pairs = ref, margin, n_pairs
-            state.__dict__.pop("_sphere_order", None)
-            if order is not None:
-                state.__dict__["_sphere_order"] = order
+            state.workspace.sphere_order = order
         state.contacts_buf = self.contacts
 
 
@@ -118,9 +116,9 @@ def _step(model, state, undo: _Undo | None) -> StepStats:
 def _stages(model, state) -> StepStats:
     free_velocity(model, state)
     rebuilt = detect(model, state)
-    free = state.__dict__.get("_free_vel")          # the free velocities, kept for a second look
+    free = state.workspace.free_vel          # the free velocities, kept for a second look
     if free is None or free.shape != state.vel6.shape:
-        free = state.__dict__["_free_vel"] = np.empty_like(state.vel6)
+        free = state.workspace.free_vel = np.empty_like(state.vel6)
     np.copyto(free, state.vel6)
     it, res = solve(model, state, break_links=False)
     c = state.contacts_buf

@@ -75,7 +75,7 @@ def rebuild_pairs(model, state, lookahead: float = 0.0) -> None:
     order = _build_pairs(model, state, state.position, margin)
     state.pairs_ref = state.position.copy()
     state.pairs_margin = margin
-    state.__dict__["_sphere_order"] = (state.pairs_ref, order)
+    state.workspace.sphere_order = (state.pairs_ref, order)
 
 
 def _build_pairs(model, state, position, margin) -> np.ndarray:
@@ -112,7 +112,7 @@ def _sphere_order(model, state) -> np.ndarray:
     narrowphase visits sphere–wall pairs).  A pure function of ``state.pairs_ref`` (the
     positions of that build): cached beside it, recomputed after a checkpoint load or a
     copy, with the same result."""
-    cached = state.__dict__.get("_sphere_order")
+    cached = state.workspace.sphere_order
     if cached is not None and cached[0] is state.pairs_ref:
         return cached[1]
     if state.pairs_ref is None or model.n_spheres < 2:
@@ -120,7 +120,7 @@ def _sphere_order(model, state) -> np.ndarray:
     radius = model.body_radius[model.sphere_ids]
     margin = state.pairs_margin or (model.options.alert + model.options.skin)
     order = cell_sort(state.pairs_ref, model.sphere_ids, 2.0 * float(radius.max()) + margin)[3]
-    state.__dict__["_sphere_order"] = (state.pairs_ref, order)
+    state.workspace.sphere_order = (state.pairs_ref, order)
     return order
 
 

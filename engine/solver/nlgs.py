@@ -735,9 +735,9 @@ def _solve_on(model, state, ci, cj, body_dyn, vel6, pos, link_i, link_j, threads
     if o.anderson > 0:
         from .anderson import Workspace, run_anderson
 
-        ws = getattr(state, "_anderson", None)
+        ws = state.workspace.anderson
         if ws is None:
-            ws = state._anderson = Workspace()
+            ws = state.workspace.anderson = Workspace()
         if threads == 1:
             return in_chunks(lambda done, m: run_anderson(
                 ws, o.anderson, n, c.n_pair, ci, cj, c.frame, c.w, c.gterm, c.mu, c.ri, c.rj,

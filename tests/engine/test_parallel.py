@@ -69,13 +69,18 @@ def test_local_layout_is_bit_identical(monkeypatch):
 
 
 def test_cell_order_cache_is_a_function_of_the_last_build():
-    """The sphere order of the narrowphase's wall loop, recomputed after a copy or a load
-    (cache dropped), is that of the build: the run continues bit for bit."""
+    """The sphere order of the narrowphase's wall loop, recomputed after a copy or a pickle
+    (the state's workspace comes out empty), is that of the build: the run continues bit
+    for bit."""
+    import pickle
+
     model, state = fcc_packing(tol=1e-4, max_iter=300)
     for _ in range(3):
         step(model, state)
+    assert state.workspace.sphere_order is not None and state.workspace.free_vel is not None
     other = state.copy()
-    other.__dict__.pop("_sphere_order", None)
+    assert other.workspace.sphere_order is None and other.workspace.free_vel is None
+    assert pickle.loads(pickle.dumps(state)).workspace.sphere_order is None
     for _ in range(3):
         step(model, state)
         step(model, other)

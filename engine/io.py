@@ -37,7 +37,7 @@ import h5py
 import numpy as np
 
 from . import laws as _laws
-from .errors import FileProblem, FormatError, RunLocked, WriteFailed
+from .errors import FileProblem, FormatError, RunLocked, WriteFailed  # noqa: F401  (engine.io.FileProblem)
 from .model import SPHERE, Drive, Model, Options
 from .analysis.energy import kinetic_energy  # noqa: F401  (engine.io.kinetic_energy)
 from .analysis.network import wall_forces  # noqa: F401  (engine.io.wall_forces)

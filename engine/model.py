@@ -33,6 +33,23 @@ CAP_BOTTOM, CAP_TOP = 1, 2
 DYN_INV_MASS, DYN_INV_INERTIA, DYN_RADIUS, DYN_LINE, DYN_LX, DYN_LY, DYN_LZ = range(7)
 
 
+def pack_body_dyn(kind, mass, inertia, radius, dof, line) -> np.ndarray:
+    """The (nb, 8) row per body the NLGS kernel reads (:attr:`Model.body_dyn`), from the
+    model's own arrays: 1/mass [1/kg] and 1/inertia [1/(kg·m²)] (0 for IMPOSED bodies, and
+    the inertia's for walls), the radius [m] (0 for walls), the LINE flag and the line's
+    direction (columns DYN_*; the eighth is padding).  The one place it is packed."""
+    kind, dof = np.asarray(kind), np.asarray(dof)
+    dyn = np.zeros((kind.shape[0], 8))
+    movable = dof != IMPOSED
+    dyn[:, DYN_INV_MASS] = np.where(movable, 1.0 / np.asarray(mass), 0.0)
+    dyn[:, DYN_INV_INERTIA] = np.where(movable & (kind == SPHERE), 1.0 / np.asarray(inertia),
+                                       0.0)
+    dyn[:, DYN_RADIUS] = np.where(kind == SPHERE, radius, 0.0)
+    dyn[:, DYN_LINE] = (dof == LINE).astype(float)
+    dyn[:, DYN_LX:DYN_LZ + 1] = line
+    return dyn
+
+
 class Options(Checked):
     """Time-stepping and solver options, validated (a bad value raises ``ValueError``
     naming the field and its allowed range).
@@ -317,9 +334,8 @@ class Model:
         dof[b] = IMPOSED
         line = self.body_line.copy()
         line[b] = 0.0
-        dyn = self.body_dyn.copy()
-        dyn[b, 0] = dyn[b, 1] = dyn[b, 3] = 0.0
-        dyn[b, 4:7] = 0.0
+        dyn = pack_body_dyn(self.body_kind, self.body_mass, self.body_inertia,
+                            self.body_radius, dof, line)
         drives = tuple(d for d in self.drives if d.body != b) + (Drive(body=b, kind="velocity",
                                                                         value=velocity),)
         drives = tuple(sorted(drives, key=lambda d: d.body))

@@ -13,7 +13,7 @@ import numpy as np
 from . import laws as _laws
 from .contact.broadphase import build_pairs
 from .model import (CAP_BOTTOM, CAP_TOP, CYLINDER, FREE, IMPOSED, LINE, PLANE, SPHERE, Drive,
-                    Model, Options)
+                    Model, Options, pack_body_dyn)
 from .state import State
 
 #: Overlap allowed at compile time, as a fraction of the smaller radius.
@@ -624,13 +624,7 @@ class Scene:
         body_next[link_i[apart]] = link_j[apart]
         inertia = np.full(nb, np.inf)
         inertia[sphere_ids] = 0.4 * mass[sphere_ids] * radius[sphere_ids] ** 2
-        body_dyn = np.zeros((nb, 8))
-        movable = dof != IMPOSED
-        body_dyn[:, 0] = np.where(movable, 1.0 / mass, 0.0)
-        body_dyn[:, 1] = np.where(movable & (kind == SPHERE), 1.0 / inertia, 0.0)
-        body_dyn[:, 2] = np.where(kind == SPHERE, radius, 0.0)
-        body_dyn[:, 3] = (dof == LINE).astype(float)
-        body_dyn[:, 4:7] = line
+        body_dyn = pack_body_dyn(kind, mass, inertia, radius, dof, line)
         model = Model(
             body_kind=kind, body_group=np.asarray(self._group, np.int16), body_radius=radius,
             body_mass=mass, body_inertia=inertia, body_axis=axis, body_height=height,

@@ -209,3 +209,29 @@ def test_wires_links_and_contact_exclusion():
     assert not pairs & {tuple(sorted(p)) for p in li}
     assert (int(open_w[1]), int(other[0])) in pairs
     assert len(state.links) == 15 and np.all(state.links.tension == 0.0)
+
+
+def test_with_drive_packs_the_kernel_rows_as_compile_does():
+    """A force-driven lid switched to an imposed velocity by ``Model.with_drive`` gets the
+    kernel's packed rows (``body_dyn``: no inverse mass or inertia, no line) that a scene
+    compiled with that velocity drive from the start has; the other bodies keep theirs."""
+    def scene(lid_velocity):
+        s = Scene(gravity=(0, 0, -9.81))
+        s.add_spheres(np.array([[0, 0, 1e-3], [3e-3, 0, 1e-3]]), 1e-3, density=2650.0,
+                      group="sand")
+        lid = s.add_plane(point=(0, 0, 5e-3), normal=(0, 0, -1), group="wall")
+        s.add_plane(group="wall")
+        if lid_velocity:
+            s.drive(lid, velocity=(0, 0, -1e-3))
+        else:
+            s.drive(lid, force=(0, 0, -1.0), mass=0.1)
+        s.interact("sand", "sand", laws.Coulomb(mu=0.5))
+        s.interact("sand", "wall", laws.Coulomb(mu=0.5))
+        return s.compile(dt=1e-4)[0], lid
+
+    forced, lid = scene(False)
+    imposed, _ = scene(True)
+    switched = forced.with_drive(lid, velocity=(0, 0, -1e-3))
+    assert forced.body_dyn[lid, 0] == 10.0 and forced.body_dyn[lid, 3] == 1.0   # 1/0.1 kg, LINE
+    assert np.array_equal(switched.body_dyn, imposed.body_dyn)
+    assert np.array_equal(switched.body_dof, imposed.body_dof)

@@ -593,15 +593,43 @@ def _reading(path, fn):
         return fn(f)
     except _BadArgument:
         raise
-    except FormatError as e:
-        if os.fspath(path) in str(e):
-            raise
-        raise FormatError(f"{os.fspath(path)}: {e}") from None
-    except (KeyError, OSError, TypeError, json.JSONDecodeError, AttributeError) as e:
-        raise FormatError(f"{os.fspath(path)}: corrupt or incomplete file ({type(e).__name__}: "
-                          f"{e})") from None
-    except ValueError as e:  # pydantic validation of options/laws, bad shapes
-        raise FormatError(f"{os.fspath(path)}: corrupt or incomplete file ({e})") from None
+    except (FormatError, KeyError, OSError, TypeError, json.JSONDecodeError, AttributeError,
+            ValueError) as e:
+        raise _format_error(path, e) from None
+    finally:
+        f.close()
+
+
+def _format_error(path, e: Exception) -> FormatError:
+    """The one-line FormatError naming ``path`` for an error met while reading it."""
+    where = os.fspath(path)
+    if isinstance(e, FormatError):
+        return e if where in str(e) else FormatError(f"{where}: {e}")
+    if isinstance(e, ValueError) and not isinstance(e, json.JSONDecodeError):
+        return FormatError(f"{where}: corrupt or incomplete file ({e})")  # pydantic, shapes
+    return FormatError(f"{where}: corrupt or incomplete file ({type(e).__name__}: {e})")
+
+
+def iter_frames(path, model: Model | None = None, *, contacts: bool = True):
+    """Yield the state of every complete frame of a history, in order, as :func:`read_frame`
+    rebuilds it, with the file opened and its model read (when ``model`` is None) once: for
+    going through a whole history (``nscd export``).  The frames complete when it starts
+    are the ones yielded."""
+    f = _open_read(path)
+    try:
+        try:
+            _check_root(f, path, "history")
+            m = model if model is not None else _read_model(f["model"])
+            n = _frame_count(f["frames"]) if "frames" in f else 0
+        except (FormatError, KeyError, OSError, TypeError, ValueError, AttributeError) as e:
+            raise _format_error(path, e) from None
+        for k in range(n):
+            try:
+                state = _state_from_frame(f, m, k, contacts)
+            except (FormatError, KeyError, OSError, TypeError, ValueError,
+                    AttributeError) as e:
+                raise _format_error(path, e) from None
+            yield state
     finally:
         f.close()
 
@@ -1504,6 +1532,7 @@ def _state_from_frame(f, model: Model, frame: int, contacts: bool = True) -> Sta
 __all__ = ["save", "load", "load_model", "file_content", "History", "HistoryData", "WriteFailed",
            "RunLocked", "lock_history", "HistoryLock",
            "free_bytes",
-           "read_history", "history_run_id", "history_meta", "read_frame", "frame_index",
+           "read_history", "history_run_id", "history_meta", "read_frame", "iter_frames",
+           "frame_index",
            "frame_arrays", "Checkpoint", "FormatError", "UnsavedCallable",
            "kinetic_energy", "wall_forces", "FORMAT_VERSION", "FORMAT_NAME"]

@@ -376,13 +376,13 @@ def export_history(history, outdir, *, name: str = "frame", progress: bool = Tru
     if n == 0:
         raise ValueError(f"{history}: the history holds no frame (run with frames > 0)")
     steps, fields = history_fields(history)
+    model = io.load_model(history)
     w = SeriesWriter(outdir, every=1, name=name, compression=compression)
-    it = range(n)
+    it = io.iter_frames(history, model)
     if progress:
         from tqdm.auto import tqdm
-        it = tqdm(it, unit="frame", desc="export")
-    for k in it:
-        model, state = io.load(history, frame=k)
+        it = tqdm(it, total=n, unit="frame", desc="export")
+    for state in it:
         at = np.flatnonzero(steps == int(state.step))
         extra = {}
         for key, v in fields.items():

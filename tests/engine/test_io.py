@@ -221,6 +221,33 @@ def test_history_write_final_keeps_the_end_state_once(tmp_path):
     assert d2.step.tolist() == [30, 40] and d2.frame_step.tolist() == [25, 40]   # its start
 
 
+def test_iter_frames_gives_each_frame_as_load_does_from_one_open_file(tmp_path, monkeypatch):
+    """io.iter_frames yields every complete frame of a history in order, each the state
+    io.load rebuilds for that frame (positions, velocities, spins, links, contacts), with
+    the file opened once; a checkpoint is refused by name."""
+    model, state = scene()
+    with io.History(tmp_path / "h.h5", trigger=10, frames=5) as h, _Quiet():
+        run(model, state, 30, writers=[h], progress=False)
+    n = io.frame_count(tmp_path / "h.h5")
+    opened = []
+    real = io._open_read
+    monkeypatch.setattr(io, "_open_read", lambda p: opened.append(p) or real(p))
+    states = list(io.iter_frames(tmp_path / "h.h5"))
+    assert len(opened) == 1 and len(states) == n == 7            # steps 0, 5, ..., 30
+    monkeypatch.setattr(io, "_open_read", real)
+    for k, got in enumerate(states):
+        want = io.load(tmp_path / "h.h5", frame=k)[1]
+        assert got.step == want.step == 5 * k
+        for name in ("position", "vel6", "link_impulse"):
+            np.testing.assert_array_equal(getattr(got, name), getattr(want, name))
+        c, d = got.contacts_buf, want.contacts_buf
+        assert c.count == d.count
+        np.testing.assert_array_equal(c.impulse[:c.count], d.impulse[:d.count])
+    io.save(tmp_path / "c.h5", model, state)
+    with pytest.raises(io.FormatError, match="c.h5: is a checkpoint file, expected a history"):
+        next(io.iter_frames(tmp_path / "c.h5"))
+
+
 def test_a_checkpoint_refuses_a_frame_other_than_its_state(checkpoint):
     assert io.load(checkpoint, frame=0)[1].step == io.load(checkpoint)[1].step == 5
     with pytest.raises(ValueError, match=r"is a checkpoint, which holds one state: frame=3 "

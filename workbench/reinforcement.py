@@ -128,8 +128,7 @@ def case(*, name, wire, k, seed, runs_dir, scale=1.0, **params) -> dict:
     from engine.sweep import not_interrupted
 
     os.makedirs(runs_dir, exist_ok=True)
-    law = None if wire == "none" else (laws.RigidWire() if wire == "rigid"
-                                       else laws.ElasticWire(stiffness=k))
+    law = laws.wire_law(wire, stiffness=k)
     kw = {n: v for n, v in params.items() if v is not None}
     if wire == "none":
         kw.pop("wire_prestrain", None)

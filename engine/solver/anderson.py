@@ -42,8 +42,9 @@ from __future__ import annotations
 import numpy as np
 from numba import njit, prange
 
+from ..stop import in_chunks
 from .local import project_disk
-from .nlgs import _apply, _apply_link, sweep_all
+from .kernels import _apply, _apply_link, sweep_all
 from .parallel import phases, sweep_groups
 
 #: Sweeps between two mixings.  A mixing costs about 1.3 sweeps on the 1 000-sphere
@@ -479,5 +480,23 @@ def run_anderson(ws: Workspace, m, n, n_pair, ci, cj, frame, w, gterm, mu, ri, r
                             int(max_iter if it1 is None else it1), ws.loop)
 
 
-__all__ = ["iterate_anderson", "run_anderson", "Workspace", "PERIOD", "RESTART_GROWTH",
-           "STALL_MIXINGS"]
+def domain_mixer(ws: Workspace, m, max_iter, tol, nl, link_i, link_j, l_normal, wl,
+                 l_unilateral, l_impulse, l_order):
+    """The mixing of depth ``m`` as :func:`engine.solver.parallel.iterate_parallel` runs it
+    on its domains (its ``mix``): a function of the gathered contact arrays, the body rows
+    and the groups that runs :func:`run_anderson` in chunks (:func:`engine.stop.in_chunks`)
+    and returns (iterations, residual).  Kept here so that the parallel sweep needs nothing
+    of this module."""
+    def mix(T, n, g_i, g_j, g_frame, g_w, g_gterm, g_mu, g_ri, g_rj, g_imp, body_dyn, vel6,
+            relax, start, mid, acc, min_par):
+        return in_chunks(lambda done, m_: run_anderson(
+            ws, m, n, n, g_i, g_j, g_frame, g_w, g_gterm, g_mu, g_ri, g_rj, g_imp, body_dyn,
+            vel6, relax, tol, max_iter, nl, link_i, link_j, l_normal, wl, l_unilateral,
+            l_impulse, l_order, T, start, acc, min_par, mid, it0=done, it1=done + m_),
+            max_iter, tol, n + nl)
+
+    return mix
+
+
+__all__ = ["iterate_anderson", "run_anderson", "domain_mixer", "Workspace", "PERIOD",
+           "RESTART_GROWTH", "STALL_MIXINGS"]

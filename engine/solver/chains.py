@@ -50,7 +50,7 @@ import numpy as np
 from numba import njit
 
 from ..model import DYN_INV_MASS
-from .nlgs import _apply_link, _full, link_sweep, link_update, lstar, resweep_hot
+from .kernels import _apply_link, _full, link_sweep, link_update, lstar, resweep_hot
 
 
 #: A pivot below this fraction of its diagonal is singular (:func:`_thomas`).

@@ -34,7 +34,7 @@ from ..stop import in_chunks
 from ..threads import numba_threads
 
 from ..model import DYN_INV_INERTIA, DYN_INV_MASS, DYN_LINE
-from .nlgs import HOT_FACTOR, _contact, _span, hot_list, links_then_residual
+from .kernels import HOT_FACTOR, _contact, _span, hot_list, links_then_residual
 
 
 @njit(cache=True)
@@ -323,15 +323,15 @@ def iterate_groups(T, n, start, mid, c_i, c_j, frame, w, gterm, mu, ri, rj, impu
 
 def iterate_parallel(T, n, c_i, c_j, frame, w, gterm, mu, ri, rj, impulse, body_dyn, vel6,
                      relax, tol, max_iter, nl, link_i, link_j, l_normal, wl, l_unilateral,
-                     l_impulse, l_order, anderson=0, workspace=None, hot_sweeps=0):
+                     l_impulse, l_order, mix=None, hot_sweeps=0):
     """:func:`engine.solver.nlgs.iterate` on ``T`` domains (module docstring).
 
     ``c_i, c_j, body_dyn, vel6`` are in the local numbering of
     :func:`engine.solver.nlgs.layout`.  Runs on min(T, numba's thread count) threads; the
-    result depends on ``T`` only.  With ``anderson = m > 0`` the sweeps are mixed as in
-    :mod:`engine.solver.anderson` (its passes on the same threads), with the
-    history buffers of ``workspace``.  With ``hot_sweeps`` > 0 (and ``anderson`` = 0) the
-    hot contacts are re-swept after each full sweep (:func:`iterate_groups`).
+    result depends on ``T`` only.  With ``mix`` (:func:`engine.solver.anderson.domain_mixer`)
+    the sweeps are mixed as in :mod:`engine.solver.anderson` (its passes on the same
+    threads).  Without it, with ``hot_sweeps`` > 0 the hot contacts are re-swept after each
+    full sweep (:func:`iterate_groups`).
     """
     T = int(T)
     nloc = body_dyn.shape[0]
@@ -353,14 +353,9 @@ def iterate_parallel(T, n, c_i, c_j, frame, w, gterm, mu, ri, rj, impulse, body_
            g_i, g_j, g_frame, g_w, g_gterm, g_mu, g_ri, g_rj, g_imp)
     acc = np.zeros((2 * T, 2))
     with numba_threads(T):
-        if anderson > 0:
-            from .anderson import run_anderson
-
-            it, res = in_chunks(lambda done, m_: run_anderson(
-                workspace, anderson, n, n, g_i, g_j, g_frame, g_w, g_gterm, g_mu, g_ri, g_rj,
-                g_imp, body_dyn, vel6, relax, tol, max_iter, nl, link_i, link_j, l_normal, wl,
-                l_unilateral, l_impulse, l_order, T, start, acc, PARALLEL_SWEEP_MIN_CONTACTS,
-                mid, it0=done, it1=done + m_), max_iter, tol, n + nl)
+        if mix is not None:
+            it, res = mix(T, n, g_i, g_j, g_frame, g_w, g_gterm, g_mu, g_ri, g_rj, g_imp,
+                          body_dyn, vel6, relax, start, mid, acc, PARALLEL_SWEEP_MIN_CONTACTS)
         else:
             hot_sweeps = int(hot_sweeps)
             m = n if hot_sweeps > 0 else 0

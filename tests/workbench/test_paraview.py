@@ -204,20 +204,24 @@ def exported(tmp_path_factory):
 X_FAILURES = ("bad X server connection", "vtkXOpenGLRenderWindow::CreateAWindow")
 
 
-def _xvfb_run(cmd, tries: int = 3):
+def _xvfb_run(cmd, tries: int = 5):
     """``xvfb-run`` on a 24-bit screen (xvfb-run's default is 8-bit: there, 2 runs of 9 back
     to back aborted with "bad X server connection"; 0 of 10 on a 24-bit screen), from a
     random display number, and again if the X connection still fails: "bad X server
     connection", or an abort in creating the window (once in a fresh-clone CI run while
-    the machine's two cores ran two other simulations, 2026-12-04)."""
+    the machine's two cores ran two other simulations, 2026-12-04; three tries in a row on
+    2026-12-05 with four other processes on the two cores): up to 5 tries, each after a
+    longer pause (2, 4, 6, 8 s)."""
     import random
+    import time
 
-    for _ in range(tries):
+    for k in range(tries):
         proc = subprocess.run([XVFB_RUN, "-a", "-n", str(random.randint(100, 4000)), "-s",
                                "-screen 0 1280x1024x24", *cmd],
                               env=_pv_env(), capture_output=True, text=True, timeout=300)
         if proc.returncode == 0 or not any(x in proc.stderr for x in X_FAILURES):
             return proc
+        time.sleep(2.0 * (k + 1))
     return proc
 
 

@@ -173,10 +173,7 @@ def overlapping(x, y, z, r, X, Y, Z, R, head, nxt, glo, inv_h, gn):
             for k in range(max(k0 - 1, 0), min(k0 + 2, gn[2])):
                 q = head[(i * gn[1] + j) * gn[2] + k]
                 while q >= 0:
-                    d = R[q] + r
-                    dx, dy, dz = x - X[q], y - Y[q], z - Z[q]
-                    lim = d * (1.0 - EPS_OVERLAP)
-                    if dx * dx + dy * dy + dz * dz < lim * lim:
+                    if _overlaps(x, y, z, r, X[q], Y[q], Z[q], R[q]):
                         return q
                     q = nxt[q]
     return -1
@@ -405,26 +402,27 @@ def _best_pocket(r, r_lo, r_hi, ub, hk, hv, off, nh, tk, tv, pa, pb, pc, ps, pma
                 # the sphere that blocked it last still does (spheres are never removed):
                 # nothing new is learnt, no grid search
                 q = pblk[v]
-                if q >= 0 and _overlaps(pos[0], pos[1], pos[2], r, X[q], Y[q], Z[q], R[q]):
-                    if Z[q] > pos[2] and r < pmax[v]:
-                        pmax[v] = r
-                else:
+                known = q >= 0 and _overlaps(pos[0], pos[1], pos[2], r, X[q], Y[q], Z[q], R[q])
+                if not known:
                     q = overlapping(pos[0], pos[1], pos[2], r, X, Y, Z, R, head, nxt, glo,
                                     inv_h, gn)
-                    if q >= 0:
+                if q >= 0:
+                    # a sphere above the centre: larger grains, which sit higher, hit it too
+                    # (skip them)
+                    above = Z[q] > pos[2]
+                    if above and r < pmax[v]:
+                        pmax[v] = r
+                    if not known:
+                        # a new blocking sphere: dead if the smallest grain no longer fits;
+                        # beside or below the centre, which larger grains may fit is sampled
                         pblk[v] = q
-                        # a sphere above the centre: larger grains, which sit higher, hit it
-                        # too (skip them); dead if the smallest grain no longer fits
-                        if Z[q] > pos[2] and r < pmax[v]:
-                            pmax[v] = r
-                        else:
-                            fit = True
+                        fit = not above
                         keep, key = _classify(a, b, c, sg, r_lo, r_hi, X, Y, Z, R, head, nxt,
                                               glo, inv_h, gn, wall_n, wall_d, cyl, box, top,
                                               work, pos)
-                    elif (pos[2] < bestz or v < best) and stable(
-                            a, b, c, pos[0], pos[1], pos[2], r, X, Y, Z, R, wall_n, cyl, work):
-                        cand = True
+                elif (pos[2] < bestz or v < best) and stable(
+                        a, b, c, pos[0], pos[1], pos[2], r, X, Y, Z, R, wall_n, cyl, work):
+                    cand = True
         if fit and keep and r < pmax[v]:
             pmax[v], pmask[v] = _fit_above(a, b, c, sg, r, pmask[v], ub, X, Y, Z, R, head, nxt,
                                            glo, inv_h, gn, wall_n, wall_d, cyl, box, top, work,
@@ -477,16 +475,20 @@ def _neighbours(s, n_obs, support_obs, reach, r_hi, X, Y, Z, R, head, nxt, glo, 
 
 
 @njit(cache=True, _nrt=False)
+def _wall_gap(w, x, y, z, r, wall_n, wall_d, cyl):
+    """Gap [m] between the sphere (x, y, z, r) and wall w (the cylinder's side for w = 1
+    in a cylinder, else the plane of wall_n[w], wall_d[w])."""
+    if cyl[2] > 0 and w == 1:
+        return cyl[2] - math.sqrt((x - cyl[0]) ** 2 + (y - cyl[1]) ** 2) - r
+    return wall_n[w, 0] * x + wall_n[w, 1] * y + wall_n[w, 2] * z - wall_d[w] - r
+
+
+@njit(cache=True, _nrt=False)
 def _walls_near(s, reach, X, Y, Z, R, wall_n, wall_d, nwall, cyl, walls):
     """The walls within reach of sphere s (as constraint ids) in walls; their count."""
-    xs, ys, zs, rs = X[s], Y[s], Z[s], R[s]
     nw = 0
     for w in range(nwall):
-        if cyl[2] > 0 and w == 1:
-            dist = cyl[2] - math.sqrt((xs - cyl[0]) ** 2 + (ys - cyl[1]) ** 2) - rs
-        else:
-            dist = wall_n[w, 0] * xs + wall_n[w, 1] * ys + wall_n[w, 2] * zs - wall_d[w] - rs
-        if dist <= 2 * reach:
+        if _wall_gap(w, X[s], Y[s], Z[s], R[s], wall_n, wall_d, cyl) <= 2 * reach:
             walls[nw] = -w - 1
             nw += 1
     return nw
@@ -512,14 +514,8 @@ def _new_pockets(s, nn, nw, nbr, walls, reach, r_lo, r_hi, npk, pa, pb, pc, ps, 
                     continue
             elif ca >= 0 or cb >= 0:
                 sp = ca if ca >= 0 else cb
-                wl = cb if ca >= 0 else ca
-                w = -wl - 1
-                if cyl[2] > 0 and w == 1:
-                    dist = cyl[2] - math.sqrt((X[sp] - cyl[0]) ** 2 + (Y[sp] - cyl[1]) ** 2) - R[sp]
-                else:
-                    dist = (wall_n[w, 0] * X[sp] + wall_n[w, 1] * Y[sp] + wall_n[w, 2] * Z[sp]
-                            - wall_d[w] - R[sp])
-                if dist > 2 * reach:
+                w = -(cb if ca >= 0 else ca) - 1
+                if _wall_gap(w, X[sp], Y[sp], Z[sp], R[sp], wall_n, wall_d, cyl) > 2 * reach:
                     continue
             for sg in (-1.0, 1.0):
                 alive, key = _classify(s, ca, cb, sg, r_lo, r_hi, X, Y, Z, R, head, nxt,

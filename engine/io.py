@@ -593,11 +593,15 @@ def _reading(path, fn):
         return fn(f)
     except _BadArgument:
         raise
-    except (FormatError, KeyError, OSError, TypeError, json.JSONDecodeError, AttributeError,
-            ValueError) as e:
+    except _READ_ERRORS as e:
         raise _format_error(path, e) from None
     finally:
         f.close()
+
+
+#: What reading a damaged or foreign file raises (HDF5, layout, pydantic): a FormatError.
+_READ_ERRORS = (FormatError, KeyError, OSError, TypeError, json.JSONDecodeError,
+                AttributeError, ValueError)
 
 
 def _format_error(path, e: Exception) -> FormatError:
@@ -621,13 +625,12 @@ def iter_frames(path, model: Model | None = None, *, contacts: bool = True):
             _check_root(f, path, "history")
             m = model if model is not None else _read_model(f["model"])
             n = _frame_count(f["frames"]) if "frames" in f else 0
-        except (FormatError, KeyError, OSError, TypeError, ValueError, AttributeError) as e:
+        except _READ_ERRORS as e:
             raise _format_error(path, e) from None
         for k in range(n):
             try:
                 state = _state_from_frame(f, m, k, contacts)
-            except (FormatError, KeyError, OSError, TypeError, ValueError,
-                    AttributeError) as e:
+            except _READ_ERRORS as e:
                 raise _format_error(path, e) from None
             yield state
     finally:

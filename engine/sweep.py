@@ -363,6 +363,13 @@ def run_case(experiment, params: dict, fixed: dict | None = None, report=None) -
     if not isinstance(res, Mapping):
         raise TypeError(f"experiment {_experiment_name(experiment)} returned {type(res).__name__}, "
                         f"not a mapping of results")
+    return {"result": _result_row(res), "elapsed": elapsed,
+            "worker": f"{socket.gethostname()}:{os.getpid()}"}
+
+
+def _result_row(res: Mapping) -> dict:
+    """A case's results as the table stores them: the scalars (non-finite floats as None),
+    and the names of the values that are not scalars in ``_dropped``."""
     table, dropped = {}, []
     for k, v in res.items():
         s, ok = _scalar(v)
@@ -372,7 +379,7 @@ def run_case(experiment, params: dict, fixed: dict | None = None, report=None) -
             dropped.append(str(k))
     if dropped:
         table["_dropped"] = ",".join(dropped)
-    return {"result": table, "elapsed": elapsed, "worker": f"{socket.gethostname()}:{os.getpid()}"}
+    return table
 
 
 # ------------------------------------------------------------------ the table
@@ -454,8 +461,7 @@ def update_results(path, results: Mapping[str, dict]) -> SweepTable:
         raise ValueError(f"{path}: no sweep table there")
     for row in table.done:
         if row["id"] in results:
-            row["result"] = {k: _scalar(v)[0] for k, v in results[row["id"]].items()
-                             if _scalar(v)[1]}
+            row["result"] = _result_row(results[row["id"]])
     _write_json(table, Path(path), dict(experiment=table.rows[0]["experiment"]))
     return table
 

@@ -205,6 +205,7 @@ def test_results_recomputed_after_the_run_are_kept_and_resumed(tmp_path):
     stored = load_table(out).rows
     assert stored[0]["result"]["z"] == -1.0 and stored[0]["result"]["extra"] is None
     assert "array" not in stored[0]["result"] and stored[0]["result"]["rescored"] is True
+    assert stored[0]["result"]["_dropped"] == "array"            # as run_case records it
     assert stored[1] == b
     again = sweep(drop, grid, "serial", out=out, progress=False)
     assert again.rows[0]["skipped"] and again.rows[0]["result"]["z"] == -1.0

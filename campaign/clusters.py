@@ -88,18 +88,26 @@ class ClusterSpec:
         except ImportError:
             raise ValueError(f"cluster {self.name!r} needs the package dask-jobqueue "
                              f"(pip install dask-jobqueue)") from None
+        cluster = _started(make, self.keywords(), self.name)
+        if self.batch:
+            cluster.scale(self.n_workers)       # n_workers workers: that many / processes jobs
+        return cluster
+
+    def keywords(self) -> dict:
+        """The keyword arguments the cluster's class gets: the options, over the defaults
+        (a LocalCluster: ``n_workers`` processes of one thread, the dashboard on a free
+        port; a batch cluster: ``processes = cores`` when not given, the dashboard on a
+        free port)."""
         if self.name == "local":
             kw = dict(n_workers=self.n_workers, threads_per_worker=1, processes=True,
                       dashboard_address=":0", silence_logs=logging.ERROR)   # any free port
             kw.update(self.options)
-            return _started(make, kw, self.name)
+            return kw
         kw = dict(self.options)
         if "cores" in kw and "processes" not in kw:
             kw["processes"] = kw["cores"]
         kw.setdefault("scheduler_options", {"dashboard_address": ":0"})
-        cluster = _started(make, kw, self.name)
-        cluster.scale(self.n_workers)
-        return cluster
+        return kw
 
     def client(self):
         """A ``distributed.Client`` on a new cluster of this spec, its workers ignoring

@@ -110,3 +110,18 @@ def test_engine_sweep_is_a_deprecation_alias_of_campaign():
     assert alias.TABLE_VERSION == TABLE_VERSION == 1
     with pytest.raises(AttributeError, match="moved to the 'campaign' package"):
         alias.no_such_name
+
+
+def test_a_slurm_cluster_by_name_writes_the_job_script_asked_for():
+    """What ``cluster="slurm"`` submits (built here, no job submitted): the options in the
+    ``#SBATCH`` lines, ``processes = cores`` workers of one thread each per job."""
+    dask_jobqueue = pytest.importorskip("dask_jobqueue")
+    spec = ClusterSpec("slurm", {"cores": 2, "memory": "4GB", "walltime": "01:00:00",
+                                 "queue": "normal", "account": "proj"}, n_workers=4)
+    assert spec.batch and spec.keywords()["processes"] == 2
+    with dask_jobqueue.SLURMCluster(**spec.keywords()) as cluster:
+        script = cluster.job_script()
+    for line in ("#SBATCH -p normal", "#SBATCH -A proj", "#SBATCH --cpus-per-task=2",
+                 "#SBATCH -t 01:00:00", "distributed.cli.dask_worker", "--nworkers 2",
+                 "--nthreads 1"):
+        assert line in script, (line, script)

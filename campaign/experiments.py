@@ -12,7 +12,7 @@ import os
 from types import MappingProxyType
 from typing import Callable, Mapping
 
-from .cases import case_id, experiment_name
+from .cases import case_id
 
 __all__ = ["EXPERIMENTS", "CaseInterrupted", "not_interrupted", "scalars_of", "resolve",
            "check_paper_cases"]

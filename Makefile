@@ -61,6 +61,7 @@ bench: $(STAMP) sysdeps
 	$(PY) bench/bench_core.py
 	$(PY) bench/bench_wire.py
 	$(PY) bench/bench_chains.py
+	$(PY) bench/bench_residual.py
 	$(PY) bench/bench_scaling.py
 	$(PY) bench/bench_parallel.py
 	$(PY) bench/bench_solvers.py

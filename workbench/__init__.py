@@ -13,13 +13,15 @@ Submodules are imported on first attribute access (module ``__getattr__``, PEP 5
   :func:`~workbench.figures.deposit_figure`;
 * :mod:`workbench.view` — the interactive viewer (trame): ``nscd view``,
   :func:`~workbench.view.show` in Jupyter (docs/view.md);
-* :mod:`workbench.units` — units chosen for reading (mN, µm/s, kPa).
+* :mod:`workbench.units` — units chosen for reading (mN, µm/s, kPa);
+* :mod:`workbench.campaign` — many runs at once: parameter grids on Dask (a LocalCluster,
+  a scheduler, a batch cluster by name), the results table, resume.
 """
 from __future__ import annotations
 
 import importlib
 
-_SUBMODULES = ("meshes", "series", "render", "figures", "view", "units")
+_SUBMODULES = ("meshes", "series", "render", "figures", "view", "units", "campaign")
 
 __all__ = list(_SUBMODULES)
 

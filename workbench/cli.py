@@ -569,8 +569,8 @@ def parse_cluster_options(items) -> dict:
 def cluster_from_args(a):
     """Where ``nscd sweep`` / ``nscd paper`` run their cases: ``--scheduler`` (an address or
     "serial"), or ``--cluster`` by name with ``--cluster-option``s and ``--workers`` (a
-    :class:`campaign.ClusterSpec`), or None (a LocalCluster of 2 workers)."""
-    from campaign import cluster_spec
+    :class:`workbench.campaign.ClusterSpec`), or None (a LocalCluster of 2 workers)."""
+    from workbench.campaign import cluster_spec
 
     options = parse_cluster_options(getattr(a, "cluster_option", None))
     if a.scheduler is not None and (a.cluster is not None or options):
@@ -585,7 +585,7 @@ def cluster_from_args(a):
 
 
 def cmd_sweep(a) -> int:
-    from campaign import EXPERIMENTS, sweep
+    from workbench.campaign import EXPERIMENTS, sweep
 
     if a.test not in EXPERIMENTS:
         raise ValueError(f"unknown test {a.test!r}; choose one of {', '.join(EXPERIMENTS)}")
@@ -730,7 +730,7 @@ def parser() -> argparse.ArgumentParser:
 def _cluster_arguments(p, default):
     """``--scheduler``, ``--cluster``, ``--cluster-option`` and ``--workers`` of a command
     that runs a campaign (``nscd sweep``, ``nscd paper``)."""
-    from campaign import CLUSTERS
+    from workbench.campaign import CLUSTERS
 
     p.add_argument("--scheduler", default=None,
                    help=f"Dask scheduler address (default: a {default}; 'serial': no Dask)")

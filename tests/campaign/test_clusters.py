@@ -1,4 +1,4 @@
-"""campaign.clusters and the Dask path: a batch cluster by name (dask-jobqueue's local job
+"""workbench.campaign.clusters and the Dask path: a batch cluster by name (dask-jobqueue's local job
 cluster, which runs the same job scripts as local processes) gives the numbers of the
 same cases run here; a case failing once is run again by Dask's own retries and reports
 two attempts; clusters and options are checked with one-line errors; engine.sweep is a
@@ -13,8 +13,8 @@ import pytest
 
 pytest.importorskip("distributed")
 
-import campaign  # noqa: E402
-from campaign import ClusterSpec, cluster_spec, expand_grid, local_client, sweep  # noqa: E402
+from workbench import campaign  # noqa: E402
+from workbench.campaign import ClusterSpec, cluster_spec, expand_grid, local_client, sweep  # noqa: E402
 from tests.campaign.test_sweep import drop  # noqa: E402
 
 
@@ -100,15 +100,15 @@ def test_engine_sweep_is_a_deprecation_alias_of_campaign():
     for name in old_all:
         assert getattr(alias, name) is getattr(campaign, name), name
         assert name in alias.__all__
-    from campaign.experiments import check_paper_cases
-    from campaign.table import TABLE_VERSION
+    from workbench.campaign.experiments import check_paper_cases
+    from workbench.campaign.table import TABLE_VERSION
 
     with warnings.catch_warnings():
         warnings.simplefilter("error")               # an imported module does not warn again
         from engine.sweep import _check_paper_cases, sweep as old_sweep
     assert _check_paper_cases is check_paper_cases and old_sweep is campaign.sweep
     assert alias.TABLE_VERSION == TABLE_VERSION == 1
-    with pytest.raises(AttributeError, match="moved to the 'campaign' package"):
+    with pytest.raises(AttributeError, match="moved to the 'workbench.campaign' package"):
         alias.no_such_name
 
 

@@ -1,4 +1,4 @@
-"""campaign.table reads the tables written by engine.sweep before the move (TABLE_VERSION 1):
+"""workbench.campaign.table reads the tables written by engine.sweep before the move (TABLE_VERSION 1):
 the sweep tables committed under bench/results load, each row with its key, status and
 result, and a re-run would find its cases by their keys."""
 from __future__ import annotations
@@ -7,7 +7,7 @@ from pathlib import Path
 
 import pytest
 
-from campaign import TABLE_VERSION, case_key, load_table
+from workbench.campaign import TABLE_VERSION, case_key, load_table
 
 RESULTS = Path(__file__).resolve().parents[2] / "bench" / "results"
 TABLES = sorted(RESULTS.glob("*-sweep.json")) + [RESULTS / "reinforcement-table-scale1.json"]

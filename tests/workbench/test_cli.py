@@ -296,11 +296,11 @@ def test_a_run_file_starts_from_a_deposits_end_state(tmp_path):
 def test_sweep_and_paper_take_a_cluster_by_name(tmp_path, capsys, monkeypatch):
     """``--cluster NAME --cluster-option K=V ... --workers N`` of ``nscd sweep`` and ``nscd
     paper`` reach the campaign as a ClusterSpec (``--scheduler`` as before); a name not
-    in campaign.CLUSTERS, an option not NAME=VALUE, an option of the cluster's class that
+    in workbench.campaign.CLUSTERS, an option not NAME=VALUE, an option of the cluster's class that
     does not exist or both --scheduler and --cluster are one line and exit code 2."""
-    import campaign
+    from workbench import campaign
     import workbench.paper as wp
-    from campaign import ClusterSpec
+    from workbench.campaign import ClusterSpec
 
     assert cli.parse_cluster_options(["cores=2", "memory=4GB", "walltime=01:00:00",
                                       "job_script_prologue=[\"module load x\"]"]) == {

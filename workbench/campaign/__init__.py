@@ -10,7 +10,7 @@ through dask-jobqueue (``cluster="slurm", cluster_options={...}``), a scheduler 
 existing ``Client`` — and gathers the scalar results into one table, written as JSON (the
 store of record) and HDF5::
 
-    from campaign import sweep
+    from workbench.campaign import sweep
     table = sweep("cylinder_triaxial", {"k": [0.1, 1.0, 10.0], "wire": ["elastic"],
                                         "scale": [0.05], "seed": [0, 1]},
                   out="out/k_sweep.json")
@@ -26,9 +26,9 @@ store of record) and HDF5::
 * ``client="serial"`` runs the cases one by one in this process (the reference the
   distributed run is compared with, and the fallback without a cluster).
 
-Modules: :mod:`campaign.cases` (grids, keys), :mod:`campaign.experiments` (the paper's tests
-by name), :mod:`campaign.runner` (the sweep on Dask or in this process),
-:mod:`campaign.table` (the table, resume), :mod:`campaign.clusters` (clusters by name).
+Modules: :mod:`workbench.campaign.cases` (grids, keys), :mod:`workbench.campaign.experiments` (the paper's tests
+by name), :mod:`workbench.campaign.runner` (the sweep on Dask or in this process),
+:mod:`workbench.campaign.table` (the table, resume), :mod:`workbench.campaign.clusters` (clusters by name).
 """
 from .cases import case_id, case_key, expand_grid
 from .clusters import CLUSTERS, ClusterSpec, cluster_spec, local_client

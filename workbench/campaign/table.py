@@ -51,7 +51,7 @@ def result_row(res: Mapping) -> dict:
 class SweepTable:
     """Rows of a sweep, one per case, and where they are stored.
 
-    Each row: ``key`` (see :func:`campaign.cases.case_key`), ``id``, ``experiment``, ``params``,
+    Each row: ``key`` (see :func:`workbench.campaign.cases.case_key`), ``id``, ``experiment``, ``params``,
     ``status`` ("done" or "failed"), ``attempts``, ``errors`` (one message per failed
     attempt), ``result`` (scalars), ``elapsed`` [s] of the successful attempt, ``worker``,
     ``skipped`` (True when taken from an earlier run).

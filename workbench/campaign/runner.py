@@ -1,5 +1,5 @@
 """The runner: every case of a grid as an independent simulation, serially or on Dask,
-gathered into one table (:mod:`campaign.table`).
+gathered into one table (:mod:`workbench.campaign.table`).
 
 On Dask each case is one task, ``client.submit(run_case, ..., retries=n, pure=False,
 key=...)``: the scheduler runs a failed case again (Dask's own retries) while the others go
@@ -370,7 +370,7 @@ def _connect(client, n_workers):
         c = Client(client)
         return c, c, None, NO_WORKER_TIMEOUT["local"]
     raise ValueError(f"client must be None, 'serial', a scheduler address, a "
-                     f"distributed.Client, a Dask cluster or a campaign.ClusterSpec, "
+                     f"distributed.Client, a Dask cluster or a workbench.campaign.ClusterSpec, "
                      f"got {client!r}")
 
 

@@ -62,6 +62,7 @@ bench: $(STAMP) sysdeps
 	$(PY) bench/bench_wire.py
 	$(PY) bench/bench_chains.py
 	$(PY) bench/bench_residual.py
+	$(PY) bench/bench_freeze.py
 	$(PY) bench/bench_scaling.py
 	$(PY) bench/bench_parallel.py
 	$(PY) bench/bench_solvers.py

@@ -185,59 +185,10 @@ def _rel(p, out):
 def _markdown(scale, claims, figs, pvds, table, rows, curves, out, wall, t_sim, problems,
               scheduler, chosen=None, threads=None, commit=None, not_run=(),
               reuse_only=False, run_names=None) -> str:
-    L = []
-    now = _dt.datetime.now().strftime("%Y-%m-%d %H:%M")
-    counts = {s: sum(c.status == s for c in claims)
-              for s in ("reproduced", "not reproduced", "not comparable")}
-    L += [f"# Reproduction of Laniel, Alart & Pagano §2.4 and §3 (Fig. 7-16, Table 2) — scale "
-          f"`{scale.name}`",
-          "",
-          f"Built {now} by `nscd paper --scale {scale.name}"
-          f"{' --only ' + ','.join(chosen) if chosen is not None else ''}"
-          f"{f' --threads {threads}' if threads is not None else ''}"
-          f"{' --reuse-only' if reuse_only else ''}"
-          f"{' --runs ' + ','.join(run_names) if run_names is not None else ''}` "
-          f"(nscd-workbench commit "
-          f"{commit or _git_commit()}), Python {platform.python_version()} on "
-          f"{os.cpu_count()} cores; "
-          f"cluster: {scheduler or 'LocalCluster, 2 workers'}; NLGS threads per run: "
-          f"{threads or 1} in this build (runs reused from earlier builds keep theirs).",
-          f"Wall time {wall:.0f} s, of which simulations {t_sim:.0f} s "
-          f"({len(table.rows)} runs, {sum(1 for r in table.rows if r.get('skipped'))} reused "
-          f"from an earlier build, {len(table.failed)} failed).",
-          "",
-          f"**Scale `{scale.name}`**: {scale.description}.", ""]
-    if chosen is not None:
-        L += [f"> **Some claims only** (`--only`): {', '.join(chosen)}. The other claims, "
-              "their runs and their figures are not part of this report.", ""]
-    if not_run:
-        how = ("`--reuse-only`: this build started none" if reuse_only else
-               "`--runs`: this build started only those")
-        L += [f"> **Runs not done yet** ({how}): "
-              f"{', '.join(not_run)}. The claims reading them use the runs that are done "
-              "(the seeds whose runs are all done) or say \"run missing\"; run the same "
-              f"command without `{'--reuse-only' if reuse_only else '--runs'}` to do them.",
-              ""]
-    if scale.smoke:
-        L += ["> **Smoke scale.** The samples are far too small and the strains too short for "
-              "any claim to be judged: every claim below is marked *not comparable*. The "
-              "column \"criterion here\" shows what the criterion gives on these numbers, as a "
-              "check that the pipeline works, not as a result. Run `nscd paper` (default scale) "
-              "or `--scale paper` for verdicts.", ""]
-    L += [f"Verdicts: {counts['reproduced']} reproduced, {counts['not reproduced']} not "
-          f"reproduced, {counts['not comparable']} not comparable (of {len(claims)} claims).", "",
-          "## Claims", "",
-          "| # | figure | claim | paper | ours | verdict |"
-          + (" criterion here |" if scale.smoke else ""),
-          "|---|---|---|---|---|---|" + ("---|" if scale.smoke else "")]
-    # the criterion's own outcome differs from the verdict at the smoke scale only
-    for c in claims:
-        L.append(f"| {c.id} | {c.figure} | {c.claim} | {c.paper} | {c.ours} | "
-                 f"**{c.status}** |" + (f" {c.outcome} |" if scale.smoke else ""))
-    L += ["", "Criteria (in `workbench/paper.py`; a criterion revised after seeing results says so "
-          "in its note):", ""]
-    for c in claims:
-        L.append(f"- **{c.id}**: {c.criterion}." + (f" *Note:* {c.note}." if c.note else ""))
+    L = _header_lines(scale, table, wall, t_sim, scheduler, chosen, threads, commit,
+                      reuse_only, run_names)
+    L += _note_lines(scale, chosen, not_run, reuse_only)
+    L += _claim_lines(scale, claims)
     L += ["", "## Figures", ""]
     for f in figures_of(chosen):
         if f.key in figs:
@@ -255,6 +206,74 @@ def _markdown(scale, claims, figs, pvds, table, rows, curves, out, wall, t_sim, 
             L += [f"- {r['params']['name']} ({r['attempts']} attempts):", "", "```",
                   r["errors"][-1], "```", ""]
     return "\n".join(L) + "\n"
+
+
+def _header_lines(scale, table, wall, t_sim, scheduler, chosen, threads, commit, reuse_only,
+                  run_names) -> list:
+    """The title, the command and the machine, the times and the scale."""
+    now = _dt.datetime.now().strftime("%Y-%m-%d %H:%M")
+    return [f"# Reproduction of Laniel, Alart & Pagano §2.4 and §3 (Fig. 7-16, Table 2) — "
+            f"scale `{scale.name}`",
+            "",
+            f"Built {now} by `nscd paper --scale {scale.name}"
+            f"{' --only ' + ','.join(chosen) if chosen is not None else ''}"
+            f"{f' --threads {threads}' if threads is not None else ''}"
+            f"{' --reuse-only' if reuse_only else ''}"
+            f"{' --runs ' + ','.join(run_names) if run_names is not None else ''}` "
+            f"(nscd-workbench commit "
+            f"{commit or _git_commit()}), Python {platform.python_version()} on "
+            f"{os.cpu_count()} cores; "
+            f"cluster: {scheduler or 'LocalCluster, 2 workers'}; NLGS threads per run: "
+            f"{threads or 1} in this build (runs reused from earlier builds keep theirs).",
+            f"Wall time {wall:.0f} s, of which simulations {t_sim:.0f} s "
+            f"({len(table.rows)} runs, {sum(1 for r in table.rows if r.get('skipped'))} reused "
+            f"from an earlier build, {len(table.failed)} failed).",
+            "",
+            f"**Scale `{scale.name}`**: {scale.description}.", ""]
+
+
+def _note_lines(scale, chosen, not_run, reuse_only) -> list:
+    """The notes on what the report leaves out: claims, runs not done, the smoke scale."""
+    L = []
+    if chosen is not None:
+        L += [f"> **Some claims only** (`--only`): {', '.join(chosen)}. The other claims, "
+              "their runs and their figures are not part of this report.", ""]
+    if not_run:
+        how = ("`--reuse-only`: this build started none" if reuse_only else
+               "`--runs`: this build started only those")
+        L += [f"> **Runs not done yet** ({how}): "
+              f"{', '.join(not_run)}. The claims reading them use the runs that are done "
+              "(the seeds whose runs are all done) or say \"run missing\"; run the same "
+              f"command without `{'--reuse-only' if reuse_only else '--runs'}` to do them.",
+              ""]
+    if scale.smoke:
+        L += ["> **Smoke scale.** The samples are far too small and the strains too short for "
+              "any claim to be judged: every claim below is marked *not comparable*. The "
+              "column \"criterion here\" shows what the criterion gives on these numbers, as a "
+              "check that the pipeline works, not as a result. Run `nscd paper` (default scale) "
+              "or `--scale paper` for verdicts.", ""]
+    return L
+
+
+def _claim_lines(scale, claims) -> list:
+    """The verdict counts, the claims table and the criteria."""
+    counts = {s: sum(c.status == s for c in claims)
+              for s in ("reproduced", "not reproduced", "not comparable")}
+    L = [f"Verdicts: {counts['reproduced']} reproduced, {counts['not reproduced']} not "
+         f"reproduced, {counts['not comparable']} not comparable (of {len(claims)} claims).", "",
+         "## Claims", "",
+         "| # | figure | claim | paper | ours | verdict |"
+         + (" criterion here |" if scale.smoke else ""),
+         "|---|---|---|---|---|---|" + ("---|" if scale.smoke else "")]
+    # the criterion's own outcome differs from the verdict at the smoke scale only
+    for c in claims:
+        L.append(f"| {c.id} | {c.figure} | {c.claim} | {c.paper} | {c.ours} | "
+                 f"**{c.status}** |" + (f" {c.outcome} |" if scale.smoke else ""))
+    L += ["", "Criteria (in `workbench/paper/registry.py`; a criterion revised after seeing "
+          "results says so in its note):", ""]
+    for c in claims:
+        L.append(f"- **{c.id}**: {c.criterion}." + (f" *Note:* {c.note}." if c.note else ""))
+    return L
 
 
 def _table2_lines(curves, rows) -> list:

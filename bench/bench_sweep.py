@@ -24,7 +24,7 @@ sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 
 import record  # noqa: E402
 
-from engine.sweep import sweep  # noqa: E402
+from campaign import sweep  # noqa: E402
 from workbench.paper import SCALES, build_report, h_fit, paper_case, read_curves  # noqa: E402
 
 

@@ -47,10 +47,10 @@ def main():
     ap.add_argument("--seeds", default="0,1,2")
     ap.add_argument("--scale", default="default", help="a workbench.paper scale (tiny: smoke)")
     ap.add_argument("--workers", type=int, default=2, choices=(1, 2),
-                    help="2: engine.sweep's LocalCluster; 1: one run after the other")
+                    help="2: campaign.sweep's LocalCluster; 1: one run after the other")
     a = ap.parse_args()
     from engine.prep import cylinder_sample
-    from engine.sweep import sweep
+    from campaign import sweep
     from workbench.paper import SCALES, paper_case
 
     seeds = [int(s) for s in a.seeds.split(",")]
@@ -65,7 +65,7 @@ def main():
     busy = record.Busy()
     with tempfile.TemporaryDirectory() as tmp:
         runs = os.path.join(tmp, "runs")
-        # None: engine.sweep's LocalCluster (2 workers, one thread each); "serial": in turn
+        # None: campaign.sweep's LocalCluster (2 workers, one thread each); "serial": in turn
         table = sweep(paper_case, cases, None if a.workers > 1 else "serial",
                       out=os.path.join(tmp, "t.json"), fixed={"runs_dir": runs}, progress=True)
         failed = [r["params"]["name"] for r in table.failed]

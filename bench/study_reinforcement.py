@@ -1,6 +1,6 @@
 """Study (issue 30): when does the wire reinforce the sand?  The cylinder triaxial test of
 every case of ``workbench.reinforcement.FACTORS`` (one factor at a time from the paper's
-baseline, each wire run against the sand run of the same seed), as an ``engine.sweep``.
+baseline, each wire run against the sand run of the same seed), as a ``campaign.sweep``.
 
 Resumable: the sweep's table (``--table``, default
 ``bench/results/reinforcement-table-scale<S>.json``) keeps every finished case, and a run of
@@ -36,7 +36,7 @@ def main(argv=None):
     ap.add_argument("--scale", type=float, default=1.0)
     ap.add_argument("--seeds", default="0,1,2")
     ap.add_argument("--workers", type=int, default=2, choices=(1, 2),
-                    help="2: engine.sweep's LocalCluster; 1: one case after the other")
+                    help="2: campaign.sweep's LocalCluster; 1: one case after the other")
     ap.add_argument("--factors", default=None,
                     help=f"a comma-free list separated by ';' of: {'; '.join(FACTORS)}")
     ap.add_argument("--table", default=None)
@@ -49,7 +49,7 @@ def main(argv=None):
     ap.add_argument("--quick", action="store_true",
                     help="scale 0.05, 2 %% strain, seed 0, the law factors only")
     a = ap.parse_args(argv)
-    from engine.sweep import sweep
+    from campaign import sweep
     from workbench.reinforcement import cases, figure, rescore, summarize
 
     scale, strain = (0.05, 0.02) if a.quick else (a.scale, 0.1)
@@ -70,7 +70,7 @@ def main(argv=None):
 
     runs_dir = os.path.join(a.runs, f"scale{scale:g}")
     if a.summary_only:
-        from engine.sweep import load_table
+        from campaign import load_table
 
         table = load_table(table_path)
         table.rows = [r for r in table.rows if r["params"] in todo]
@@ -88,7 +88,7 @@ def main(argv=None):
     fresh = {r["id"]: res for r, (_, res) in zip(table.done, rows)
              if res.get("rescored") and res != r["result"]}
     if fresh:
-        from engine.sweep import update_results
+        from campaign import update_results
 
         update_results(table_path, fresh)
         print(f"{len(fresh)} rescored results kept in {table_path}")

@@ -28,6 +28,7 @@ from __future__ import annotations
 
 import dataclasses
 import json
+import math
 import os
 import uuid
 from dataclasses import dataclass, field
@@ -282,9 +283,10 @@ HISTORY_SCALARS = {
     "iterations": (np.int32, "-"), "residual": (np.float64, "-"), "converged": (np.int8, "-"),
     "n_contacts": (np.int32, "-"), "n_links": (np.int32, "-"),
     "max_overlap": (np.float64, "-"), "energy_gain": (np.float64, "J"),
+    "natural_residual": (np.float64, "-"),
 }
 #: Records a history written before them lacks (read as NaN).
-_LATER_SCALARS = ("max_overlap", "energy_gain")
+_LATER_SCALARS = ("max_overlap", "energy_gain", "natural_residual")
 
 
 #: HDF5 file-format bounds: v1.10 objects carry metadata checksums and allow SWMR; files
@@ -1236,6 +1238,8 @@ class History:
                "n_links": int(np.count_nonzero(state.link_impulse)),
                "max_overlap": getattr(st, "max_overlap", 0.0),
                "energy_gain": getattr(st, "energy_gain", 0.0),
+               "natural_residual": (math.nan if getattr(st, "natural_residual", None) is None
+                                    else st.natural_residual),
                "wall_force": wall_forces(model, state)}
         for name, (fn, _) in self.extra.items():
             v = np.asarray(fn(model, state))
@@ -1282,7 +1286,9 @@ class HistoryData:
     ``residual``, ``converged`` (bool), ``n_contacts``, ``n_links``, ``max_overlap`` (n,)
     (largest contact overlap / smaller radius; NaN in a file written before it),
     ``energy_gain`` (n,) [J] (the work of the step's reactions on the free spheres,
-    :func:`engine.sanity.reaction_gain`; NaN in a file written before it), ``wall_force``
+    :func:`engine.sanity.reaction_gain`; NaN in a file written before it),
+    ``natural_residual`` (n,) (Siconos's stopping measure, :mod:`engine.solver.residual`;
+    NaN unless ``Options.natural_residual`` was on), ``wall_force``
     (n, nw, 3) [N] for the walls ``wall_ids``, ``extra`` {name: (n, ...)}.
     Frames: ``frame_step``, ``frame_time`` (f,) [s], ``position``, ``velocity``, ``spin``
     (f, nb, 3) [m, m/s, rad/s], ``link_tension`` (f, nl) [N], ``link_broken`` (f, nl);
@@ -1300,6 +1306,7 @@ class HistoryData:
     n_links: np.ndarray
     max_overlap: np.ndarray
     energy_gain: np.ndarray
+    natural_residual: np.ndarray
     wall_force: np.ndarray
     wall_ids: np.ndarray
     extra: dict = field(default_factory=dict)

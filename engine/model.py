@@ -117,6 +117,11 @@ class Options(Checked):
         the other; above :data:`engine.sanity.OVERLAP_WARN` = 5 % the run's summary
         warns).  Small wire beads against large grains reach about 1 (104 % was seen in
         a box test at scale 0.03 with beads of 57.5 µm).
+    natural_residual : bool
+        Also compute each step's natural-map residual, Siconos's stopping measure
+        (:mod:`engine.solver.residual`), into ``StepStats.natural_residual`` and the
+        histories (one more pass over the contacts per step).  It does not change the
+        stopping test (the Quad norm).  Default False (None reported, NaN in histories).
     """
 
     model_config = ConfigDict(frozen=True, extra="forbid")
@@ -134,6 +139,7 @@ class Options(Checked):
     hot_sweeps: int = Field(0, ge=0, le=8)
     chain_solve: bool = False
     max_overlap: float = Field(2.0, gt=0.0, le=1e3, allow_inf_nan=False)
+    natural_residual: bool = False
 
     _hot_alone = model_validator(mode="after")(lambda self: no_solver_conflict(self))
 

@@ -519,7 +519,8 @@ class Scene:
     def compile(self, dt: float, theta: float = 0.5, tol: float = 1e-4, max_iter: int = 1000,
                 relax: float = 1.0, alert: float | None = None, skin: float | None = None,
                 threads: int = 1, anderson: int = 0, hot_sweeps: int = 0,
-                max_overlap: float = 2.0, chain_solve: bool = False):
+                max_overlap: float = 2.0, chain_solve: bool = False,
+                natural_residual: bool = False):
         """Freeze the scene into a :class:`Model` and its initial :class:`State`.
 
         Parameters
@@ -546,6 +547,9 @@ class Scene:
         chain_solve : bool
             Solve each wire as one chain in every sweep
             (:attr:`engine.model.Options.chain_solve`; default False).
+        natural_residual : bool
+            Also report each step's natural-map residual, Siconos's stopping measure
+            (:attr:`engine.model.Options.natural_residual`; default False).
 
         Raises
         ------
@@ -565,7 +569,8 @@ class Scene:
                        alert=0.1 * rmin if alert is None else alert,
                        skin=0.5 * rmin if skin is None else skin, gravity=self.gravity,
                        threads=threads, anderson=anderson, hot_sweeps=hot_sweeps,
-                       max_overlap=max_overlap, chain_solve=chain_solve)
+                       max_overlap=max_overlap, chain_solve=chain_solve,
+                       natural_residual=natural_residual)
 
         dof = np.where(kind == SPHERE, FREE, IMPOSED).astype(np.int8)
         line = np.zeros((nb, 3))

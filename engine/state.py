@@ -42,6 +42,9 @@ class StepStats:
         (:func:`engine.sanity.reaction_gain`).
     free_energy : float [J]
         Kinetic energy of the free spheres' free motion (the reference of ``energy_gain``).
+    natural_residual : float
+        Siconos's natural-map residual of the solved step (:mod:`engine.solver.residual`)
+        when ``Options.natural_residual`` is on, else None [-].
     """
 
     iterations: int = 0
@@ -54,6 +57,7 @@ class StepStats:
     overlap_pair: tuple = (-1, -1)
     energy_gain: float = 0.0
     free_energy: float = 0.0
+    natural_residual: float | None = None
 
     def __post_init__(self):
         self.overlap_pair = tuple(int(x) for x in self.overlap_pair)   # a file gives a list

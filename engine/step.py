@@ -35,6 +35,7 @@ from .integrator import free_velocity, update
 from .sanity import (ENERGY_WARN, OVERLAP_WARN, THROUGH, PhysicsWarning, energy_sources,
                      max_overlap, reaction_gain, through_walls)
 from .solver.nlgs import _break_links, solve
+from .solver.residual import natural_residual
 from .state import ContactBuffers, StepStats
 
 
@@ -140,13 +141,15 @@ def _stages(model, state) -> StepStats:
         _break_links(model, state, model.options.dt)
     gain, base = reaction_gain(state.vel6, free, model.body_mass, model.body_inertia,
                                model.sphere_ids, model.body_dof)
+    nat = natural_residual(model, state, free) if model.options.natural_residual else None
     update(model, state)
     ov, at = max_overlap(c.count, c.gap, c.ri, c.rj, c.i, model.body_dof)
     stats = StepStats(iterations=it, residual=res, converged=res < model.options.tol,
                       n_contacts=c.count, rebuilt=rebuilt, late_contacts=late,
                       max_overlap=float(ov),
                       overlap_pair=(int(c.i[at]), int(c.j[at])) if at >= 0 else (-1, -1),
-                      energy_gain=float(gain), free_energy=float(base))
+                      energy_gain=float(gain), free_energy=float(base),
+                      natural_residual=nat)
     state.stats = stats
     return stats
 

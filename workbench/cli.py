@@ -18,11 +18,13 @@
                                              the interactive viewer in the browser: a
                                              history, a checkpoint or a folder of runs
     nscd paper [--scale tiny|default|paper] [--out DIR] [--scheduler ADDRESS|serial]
+               [--cluster NAME --cluster-option NAME=VALUE ... --workers N]
                [--only CLAIMS] [--threads T] [--reuse-only | --runs NAME,NAME]
                                              reproduce the paper's §3: DIR/report.md, figures,
                                              runs, series (workbench/paper.py)
     nscd sweep TEST --grid NAME=V1,V2 ... [--out TABLE.json] [--scheduler ADDRESS|serial]
-                                             independent runs of a test on Dask (engine.sweep)
+               [--cluster local|slurm|pbs|... --cluster-option NAME=VALUE ... --workers N]
+                                             independent runs of a test on Dask (campaign)
 
 A TOML file for ``nscd run``::
 
@@ -498,7 +500,7 @@ def cmd_info(a) -> int:
 def cmd_paper(a) -> int:
     from .paper import build_report
 
-    rep = build_report(a.out, a.scale, scheduler=a.scheduler, render=not a.no_render,
+    rep = build_report(a.out, a.scale, scheduler=cluster_from_args(a), render=not a.no_render,
                        only=a.only, threads=a.threads, reuse_only=a.reuse_only, runs=a.runs)
     counts = {}
     for c in rep.claims:
@@ -539,14 +541,58 @@ def parse_grid(items) -> dict:
     return grid
 
 
+def parse_cluster_options(items) -> dict:
+    """``["cores=2", "memory=4GB", "walltime=01:00:00"]`` -> {"cores": 2, "memory": "4GB",
+    ...}: the options of a cluster's class (numbers, true/false/none, a JSON list, or
+    text)."""
+    import json
+
+    opts = {}
+    for it in items or []:
+        if "=" not in it:
+            raise ValueError(f"--cluster-option {it!r}: expected NAME=VALUE")
+        name, text = (x.strip() for x in it.split("=", 1))
+        if not name.isidentifier():
+            raise ValueError(f"--cluster-option {it!r}: {name!r} is not an option name")
+        if name in opts:
+            raise ValueError(f"--cluster-option {it!r}: {name} is given twice")
+        if text.startswith("["):
+            try:
+                opts[name] = json.loads(text)
+            except ValueError:
+                raise ValueError(f"--cluster-option {it!r}: not a JSON list") from None
+        else:
+            opts[name] = _value(text)
+    return opts
+
+
+def cluster_from_args(a):
+    """Where ``nscd sweep`` / ``nscd paper`` run their cases: ``--scheduler`` (an address or
+    "serial"), or ``--cluster`` by name with ``--cluster-option``s and ``--workers`` (a
+    :class:`campaign.ClusterSpec`), or None (a LocalCluster of 2 workers)."""
+    from campaign import cluster_spec
+
+    options = parse_cluster_options(getattr(a, "cluster_option", None))
+    if a.scheduler is not None and (a.cluster is not None or options):
+        raise ValueError("--scheduler and --cluster / --cluster-option: give one of them "
+                         "(--scheduler: a running scheduler or 'serial'; --cluster: a "
+                         "cluster to start)")
+    if a.scheduler is not None:
+        return a.scheduler
+    if a.cluster is None and not options and a.workers == 2:
+        return None
+    return cluster_spec(a.cluster or "local", options, a.workers)
+
+
 def cmd_sweep(a) -> int:
-    from engine.sweep import EXPERIMENTS, sweep
+    from campaign import EXPERIMENTS, sweep
 
     if a.test not in EXPERIMENTS:
         raise ValueError(f"unknown test {a.test!r}; choose one of {', '.join(EXPERIMENTS)}")
     grid = parse_grid(a.grid)
+    where = cluster_from_args(a)
     out = Path(a.out or Path("out") / f"sweep_{a.test}.json")
-    table = sweep(a.test, grid, a.scheduler, out=out, retries=a.retries,
+    table = sweep(a.test, grid, where, out=out, retries=a.retries,
                   fixed={"history_dir": str(out.with_suffix("")) + "_runs"},
                   n_workers=a.workers)
     for r in table.failed:
@@ -651,9 +697,7 @@ def parser() -> argparse.ArgumentParser:
                          "cores); paper: the paper's sizes (Fig. 11-16: ~45 min on 2 cores; the slopes: "
                          "hours, use --only or --scheduler)")
     pp.add_argument("--out", default="out/paper", help="output directory (default out/paper)")
-    pp.add_argument("--scheduler", default=None,
-                    help="Dask scheduler address (default: a LocalCluster of 2 workers; "
-                         "'serial': no Dask)")
+    _cluster_arguments(pp, "LocalCluster of 2 workers")
     pp.add_argument("--only", default=None, metavar="CLAIMS",
                     help="run and report these claims only: ids or figure prefixes, "
                          "comma-separated (e.g. fig14 or fig13c,fig14-rigid)")
@@ -677,12 +721,29 @@ def parser() -> argparse.ArgumentParser:
                     help="a parameter and its values (repeat; the cases are the product); "
                          "wire=elastic|rigid|none and k=... [N] choose the wire law")
     sw.add_argument("--out", help="JSON table (default out/sweep_<test>.json; .h5 beside it)")
-    sw.add_argument("--scheduler", default=None,
-                    help="Dask scheduler address (default: a LocalCluster; 'serial': no Dask)")
-    sw.add_argument("--workers", type=int, default=2, help="LocalCluster workers (default 2)")
+    _cluster_arguments(sw, "LocalCluster")
     sw.add_argument("--retries", type=int, default=1, help="retries of a failed case (default 1)")
     sw.set_defaults(fn=cmd_sweep)
     return p
+
+
+def _cluster_arguments(p, default):
+    """``--scheduler``, ``--cluster``, ``--cluster-option`` and ``--workers`` of a command
+    that runs a campaign (``nscd sweep``, ``nscd paper``)."""
+    from campaign import CLUSTERS
+
+    p.add_argument("--scheduler", default=None,
+                   help=f"Dask scheduler address (default: a {default}; 'serial': no Dask)")
+    p.add_argument("--cluster", default=None, choices=tuple(CLUSTERS),
+                   help="start a cluster of this kind: local (a LocalCluster), a batch "
+                        "system through dask-jobqueue (slurm, pbs, sge, lsf, moab, oar, "
+                        "htcondor; each job runs workers), or jobqueue-local (the same job "
+                        "scripts as local processes)")
+    p.add_argument("--cluster-option", action="append", metavar="NAME=VALUE",
+                   help="an option of the cluster's class (repeat), e.g. cores=2 memory=4GB "
+                        "walltime=01:00:00 queue=normal account=myproject")
+    p.add_argument("--workers", type=int, default=2,
+                   help="workers of the cluster started (default 2)")
 
 
 INTERRUPTED = 130  # the shell's code for a command stopped by SIGINT

@@ -125,7 +125,7 @@ def case(*, name, wire, k, seed, runs_dir, scale=1.0, **params) -> dict:
     solver's figures)."""
     from engine import laws
     from engine.experiments import cylinder_triaxial
-    from engine.sweep import not_interrupted
+    from campaign import not_interrupted
 
     os.makedirs(runs_dir, exist_ok=True)
     law = laws.wire_law(wire, stiffness=k)

@@ -78,6 +78,44 @@ class TestResult:
                   f"{self.deviator[-1]:.4g} Pa, mean stress {self.mean_stress[-1]:.4g} Pa; ")
         return s + f"history {self.history}"
 
+    def scalars(self) -> dict:
+        """The test's scalar results (what a campaign's table keeps): the run's steps and
+        convergence, the curves' final values, the wire stress's principal values, H
+        (Table 2) or why it could not be fitted."""
+        out = _run_scalars(self)
+        n = len(self.time)
+        last = (lambda a: float(np.asarray(a)[-1]) if n else float("nan"))
+        out.update(records=n, axial_strain=last(self.axial_strain),
+                   deviator=last(self.deviator), mean_stress=last(self.mean_stress),
+                   volumetric_strain=last(self.volumetric_strain),
+                   wire_equivalent=last(self.wire_equivalent),
+                   iso_reached=bool(self.params.get("iso_reached")),
+                   strain_rate=self.params.get("strain_rate"),
+                   n_sand=self.params.get("n_sand"), n_beads=self.params.get("n_beads"))
+        if n:
+            w = np.linalg.eigvalsh(np.asarray(self.wire_stress[-1]))
+            out["wire_principal_min"], out["wire_principal_max"] = float(w[0]), float(w[-1])
+        H = self.extra.get("H")
+        if H is not None:
+            out.update(H=H.H, H_r2=H.r2, H_start_strain=H.start_point[0],
+                       H_start_stress=H.start_point[1])
+        elif "H_error" in self.extra:
+            out["H_error"] = self.extra["H_error"]
+        return out
+
+
+def _run_scalars(result) -> dict:
+    """The scalars of every test's result: steps, convergence, history, resumed from."""
+    c = result.convergence or {}
+    out = dict(steps=c.get("steps"), non_converged=c.get("non_converged"),
+               non_converged_share=c.get("share"), history=result.history,
+               steps_wall_time=c.get("wall_time"))
+    if c.get("resumed_from"):                  # a run resumed from checkpoints of these steps
+        out["resumed_from"] = ",".join(map(str, c["resumed_from"]))
+    if c.get("resumed_with_other_code"):       # ... of them, under other engine code
+        out["resumed_with_other_code"] = ",".join(map(str, c["resumed_with_other_code"]))
+    return out
+
 
 #: Largest sample scale the tests build (10: ten times the paper's samples, about 300 000
 #: bodies, a few GB; beyond, the memory asked for runs out before anything is built).
@@ -525,6 +563,28 @@ class RestResult:
     history: str
     params: dict = field(default_factory=dict)
     convergence: dict = field(default_factory=dict)
+
+    def scalars(self) -> dict:
+        """The deposit's scalar results (what a campaign's table keeps): the run's steps and
+        convergence, at rest, the weight, the grain and bead counts, then the fields a
+        deposit's result type declares as numbers (``float``, ``int``, ``bool``: the slope's
+        maximum slope and floor force, the deposit's settlement, mould force and slack
+        share), the particles lost (when counted) and the wire's tortuosity before and
+        after."""
+        import dataclasses
+
+        out = _run_scalars(self)
+        out.update(at_rest=bool(self.at_rest), weight=self.weight,
+                   n_sand=self.params.get("n_sand"), n_beads=self.params.get("n_beads"))
+        common = {f.name for f in dataclasses.fields(RestResult)}
+        out.update({f.name: getattr(self, f.name) for f in dataclasses.fields(self)
+                    if f.name not in common and f.type in ("float", "int", "bool")})
+        if "lost_particles" in self.params:
+            out["lost_particles"] = self.params["lost_particles"]
+        if self.wire_before is not None:
+            out.update(tortuosity_before=self.wire_before.tortuosity,
+                       tortuosity_after=self.wire_after.tortuosity)
+        return out
 
 
 def deposit_laws(sc, support: str, *, mu, mu_support, mu_wire, wire) -> None:

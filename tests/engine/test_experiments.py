@@ -103,7 +103,7 @@ def test_slope_deposit(tmp_path):
     assert r.at_rest, str(r)
     assert r.floor_force == pytest.approx(r.weight, rel=0.02)
     # the floor carries the weight: no grain fell off its edge, and a sweep table says so
-    from engine.sweep import scalars_of
+    from campaign import scalars_of
     assert r.params["lost_particles"] == 0 and scalars_of(r)["lost_particles"] == 0
     # the heap's slope stays below the sand's friction angle (atan 0.5 = 26.6°) + 5°
     assert r.max_slope_deg < r.params["friction_angle_deg"] + 5
@@ -126,7 +126,7 @@ def test_gravity_deposit_in_the_mould(tmp_path):
     history's first frame is the geometric sample whose tortuosity is ``wire_before``."""
     from engine.analysis import tortuosity, wire_chains
     from engine.io import load
-    from engine.sweep import scalars_of
+    from campaign import scalars_of
 
     r = gravity_deposit(0.02, sample="box", history=str(tmp_path / "d.h5"), progress=False)
     assert r.at_rest, str(r)
@@ -430,7 +430,7 @@ def test_a_checkpoint_of_other_engine_code_is_resumed_with_a_warning(monkeypatch
     A resume under the same code lists nothing."""
     import engine.experiments.common as common
     from engine.io import load_extra
-    from engine.sweep import scalars_of
+    from campaign import scalars_of
 
     code = common.engine_code()
     assert len(code) == 12 and int(code, 16) >= 0

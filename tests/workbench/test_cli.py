@@ -1,4 +1,5 @@
 """The ``nscd`` command: demo end to end, config validation, info/render/export."""
+import re
 import numpy as np
 import pytest
 
@@ -290,3 +291,46 @@ def test_a_run_file_starts_from_a_deposits_end_state(tmp_path):
     with pytest.raises(cli.ConfigError, match="wire: a \\[wire\\] law with parameters.sample"):
         cli.validate_config(dict(raw, wire={"law": "rigid"}))
     cli.validate_config(dict(raw, wire={"law": "none"}))       # accepted: a sand-only check
+
+
+def test_sweep_and_paper_take_a_cluster_by_name(tmp_path, capsys, monkeypatch):
+    """``--cluster NAME --cluster-option K=V ... --workers N`` of ``nscd sweep`` and ``nscd
+    paper`` reach the campaign as a ClusterSpec (``--scheduler`` as before); a name not
+    in campaign.CLUSTERS, an option not NAME=VALUE, an option of the cluster's class that
+    does not exist or both --scheduler and --cluster are one line and exit code 2."""
+    import campaign
+    import workbench.paper as wp
+    from campaign import ClusterSpec
+
+    assert cli.parse_cluster_options(["cores=2", "memory=4GB", "walltime=01:00:00",
+                                      "job_script_prologue=[\"module load x\"]"]) == {
+        "cores": 2, "memory": "4GB", "walltime": "01:00:00",
+        "job_script_prologue": ["module load x"]}
+    got = []
+    monkeypatch.setattr(campaign, "sweep", lambda test, grid, where, **kw: got.append(where)
+                        or campaign.SweepTable())
+    monkeypatch.setattr(wp, "build_report", lambda *a, **kw: got.append(kw["scheduler"])
+                        or (_ for _ in ()).throw(ValueError("stop here")))
+    base = ["sweep", "box_triaxial", "--grid", "seed=0", "--out", str(tmp_path / "t.json")]
+    assert cli.main(base + ["--cluster", "slurm", "--cluster-option", "cores=2",
+                            "--cluster-option", "memory=4GB", "--workers", "8"]) == 0
+    assert got[-1] == ClusterSpec("slurm", {"cores": 2, "memory": "4GB"}, 8)
+    assert cli.main(base) == 0 and got[-1] is None                 # a LocalCluster of 2
+    assert cli.main(base + ["--scheduler", "serial"]) == 0 and got[-1] == "serial"
+    assert cli.main(["paper", "--scale", "tiny", "--cluster", "jobqueue-local",
+                     "--cluster-option", "cores=1", "--out", str(tmp_path / "p")]) == 2
+    assert got[-1] == ClusterSpec("jobqueue-local", {"cores": 1}, 2)
+    capsys.readouterr()
+    for args, says in ((["--cluster-option", "cores"], "--cluster-option 'cores': expected "
+                                                       "NAME=VALUE"),
+                       (["--scheduler", "tcp://h:8786", "--cluster", "pbs"],
+                        "--scheduler and --cluster / --cluster-option: give one of them"),
+                       (["--cluster", "local", "--workers", "0"],
+                        r"n_workers \(--workers\) must be an integer in \[1, 1024\], got 0")):
+        assert cli.main(base + args) == 2
+        err = capsys.readouterr().err
+        assert err.count("\n") == 1 and re.search(says, err), err
+    with pytest.raises(SystemExit):
+        cli.main(base + ["--cluster", "slurmx"])
+    err = capsys.readouterr().err
+    assert "--cluster: invalid choice: 'slurmx'" in err and "slurm" in err and "pbs" in err

@@ -364,7 +364,7 @@ def test_reuse_only_scores_the_runs_done_and_starts_none(tmp_path):
     """``reuse_only``: the report of the runs already done in OUT (here one of the two
     Fig. 7 seeds), the others listed as not run, nothing started."""
     import workbench.paper as wp
-    from engine.sweep import sweep
+    from campaign import sweep
 
     out = tmp_path / "p"
     s = SCALES["tiny"]
@@ -423,7 +423,7 @@ def test_an_interrupted_paper_run_is_not_recorded_as_done_and_resumes(tmp_path, 
     """``paper_case`` (what ``nscd paper`` runs) refuses to turn an interrupted run into
     table values (the sweep then leaves it pending), and the case run again resumes."""
     import workbench.paper as wp
-    from engine.sweep import CaseInterrupted
+    from campaign import CaseInterrupted
     from tests.helpers import stop_runs_at
 
     (case,) = [c for c in cases_for(SCALES["tiny"], only="fig7") if c["name"].endswith("0")]

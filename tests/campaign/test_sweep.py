@@ -1,4 +1,4 @@
-"""engine.sweep: cases on a LocalCluster of 2 workers give the numbers of the same cases run
+"""campaign.sweep: cases on a LocalCluster of 2 workers give the numbers of the same cases run
 one by one; a failing case is reported (and retried once) while the others finish; a
 re-run skips the finished cases; the JSON and HDF5 tables agree."""
 from __future__ import annotations
@@ -14,8 +14,8 @@ import pytest
 pytest.importorskip("distributed")
 
 from engine import Scene, laws, run  # noqa: E402
-from engine.sweep import (case_id, case_key, expand_grid, load_table, local_client,  # noqa: E402
-                          sweep, update_results)
+from campaign import (case_id, case_key, expand_grid, load_table, local_client,  # noqa: E402
+                      sweep, update_results)
 
 
 # ---------------------------------------------------------------- a cheap experiment
@@ -117,7 +117,8 @@ def test_running_cases_report_their_stages(client, tmp_path):
     report of a case is its step count."""
     import time
 
-    from engine.sweep import _resolve, _run_dask, run_case
+    from campaign.experiments import resolve as _resolve
+    from campaign.runner import _run_dask, run_case
 
     fn = _resolve("box_triaxial")
     params = dict(scale=0.03, axial_strain=0.002)
@@ -255,7 +256,7 @@ def test_named_experiment_rejects_bad_input_before_running(tmp_path):
                   progress=False)
     assert not (tmp_path / "bad.json").exists()
     # typed values of the right kinds pass the check (an int for a float, None where allowed)
-    from engine.sweep import _check_paper_cases
+    from campaign.experiments import check_paper_cases as _check_paper_cases
 
     _check_paper_cases("box_triaxial", [{"scale": 1, "mu": 0, "seed": 3, "hot_sweeps": None,
                                          "neighbour_contact": False}], {})
@@ -301,7 +302,7 @@ def stopped_drop(*, height: float, stop_at: float | None = None):
 def test_an_interrupted_case_stops_the_sweep_and_runs_again_later(tmp_path, capsys):
     """Ctrl-C during a case: the cases finished are kept, the stopped one is neither a result
     nor a failure (it stays pending) and the cases after it wait; the next run runs them."""
-    from engine.sweep import CaseInterrupted
+    from campaign import CaseInterrupted
 
     out = tmp_path / "i.json"
     grid = [{"height": 2e-3}, {"height": 3e-3}, {"height": 4e-3}]
@@ -345,8 +346,8 @@ import sys
 # a terminal's Ctrl-C: a command started in the background by a shell without job control
 # (CI) inherits SIGINT ignored, and Python then keeps ignoring it
 signal.signal(signal.SIGINT, signal.default_int_handler)
-from engine.sweep import sweep
-from tests.engine.test_sweep import nap
+from campaign import sweep
+from tests.campaign.test_sweep import nap
 if __name__ == "__main__":
     grid = [dict(seconds=0.1), dict(seconds=600.0), dict(seconds=601.0)]
     try:
@@ -396,7 +397,7 @@ def test_ctrl_c_on_a_local_cluster_keeps_the_finished_cases_quietly(tmp_path):
 def test_an_interrupted_named_test_is_not_recorded_as_done(tmp_path, monkeypatch):
     """The paper's tests by name (what ``nscd sweep`` runs) go through a wrapper returning
     table values: an interrupted run must still stop the sweep and stay pending."""
-    from engine.sweep import CaseInterrupted
+    from campaign import CaseInterrupted
     from tests.helpers import stop_runs_at
 
     stop_runs_at(monkeypatch, 30)
@@ -412,7 +413,8 @@ def test_a_grid_names_every_wire_law_and_its_parameters(tmp_path, monkeypatch):
     ``prestrain`` and ``max_tension``: the test function gets that law; a parameter the
     law has not is refused before any case runs (the rigid wire's k used to be ignored)."""
     from engine import experiments
-    from engine.sweep import EXPERIMENTS, _check_paper_cases
+    from campaign import EXPERIMENTS
+    from campaign.experiments import check_paper_cases as _check_paper_cases
 
     got = []
 
@@ -448,7 +450,8 @@ def test_a_grid_prepares_and_starts_the_triaxial_tests(tmp_path, monkeypatch):
     ``confinement`` are sweep parameters like the others (checked before any case runs); a
     case with a ``sample`` path and the default wire lets the state keep its own law."""
     from engine import experiments
-    from engine.sweep import EXPERIMENTS, _check_paper_cases
+    from campaign import EXPERIMENTS
+    from campaign.experiments import check_paper_cases as _check_paper_cases
 
     _check_paper_cases("cylinder_triaxial", [dict(preparation="paper", wire_density=5e5,
                                                   wire_mode="orthotropic", wire_prestrain=0.01,

@@ -514,6 +514,7 @@ class _Reads(dict):
         return default
 
 
+@pytest.mark.filterwarnings("ignore:No artists with labels found")   # (empty figures)
 def test_each_claim_reads_only_the_runs_of_its_rows(tmp_path):
     """A claim's scoring and figures read no run its rows do not list (so ``--only`` and
     ``cases_for`` never leave out a run a claim reads)."""

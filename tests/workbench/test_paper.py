@@ -7,6 +7,7 @@ import json
 import re
 import subprocess
 import sys
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -22,6 +23,7 @@ FIGURES = ["fig07_tortuosity", "fig07_before", "fig07_after", "fig08_09_directio
            "fig10_slope", "fig11_wire_stress", "fig11_forces", "fig11_wire", "fig12_strains",
            "fig13_cylinder", "fig13_beads", "fig13_wire", "fig13_torus", "fig14_stress_strain",
            "fig15_wire_equivalent", "fig16_H_vs_k"]
+RESULTS = Path(__file__).resolve().parents[2] / "bench" / "results"   # committed reports
 
 
 def test_cases_cover_the_figures():
@@ -334,7 +336,7 @@ def test_nscd_paper_tiny(tmp_path, monkeypatch):
     # HEAD during the build is reported beside it
     import workbench.paper as wp
     heads = iter(["aaaa111", "bbbb222"])
-    monkeypatch.setattr(wp, "_git_commit", lambda: next(heads))
+    monkeypatch.setattr(wp.report, "_git_commit", lambda: next(heads))   # build_report's
     wp.build_report(out, "tiny", scheduler="serial", render=False, only="fig14", progress=False)
     assert ("commit aaaa111; bbbb222 when the report was written (the runs used the first)"
             in (out / "report.md").read_text())
@@ -454,3 +456,108 @@ def test_the_runs_table_says_when_a_run_resumed_under_other_engine_code(tmp_path
     text = "\n".join(wp._run_lines(SCALES["tiny"], rows, {}, tmp_path))
     assert "| a | done (resumed at step 900) | 0 |" in text
     assert "| b | done (resumed at step 30, 60; at step 60 with other engine code) | 1 |" in text
+
+
+def test_the_claim_registry_is_the_one_list():
+    """Every claim of ``CLAIMS`` has rows with runs at every scale and figures; the ids,
+    the runs, the selection, the verdicts, the figures and the series of a report are all
+    derived from it: a claim added to the registry appears in each of them."""
+    import dataclasses
+
+    from workbench.paper import registry as reg
+
+    assert [r.id for cl in reg.CLAIMS for r in cl.rows] == CLAIMS
+    assert [f.file[:-4] for f in reg.figures_of(None)] == FIGURES
+    for cl in reg.CLAIMS:
+        assert cl.figures and all(r.id.startswith(cl.id) for r in cl.rows), cl.id
+        assert reg.select_claims(cl.id, SCALES["paper"]) == [r.id for r in cl.rows]
+        assert reg.figures_of([cl.rows[-1].id]) == list(cl.figures)
+        for s in SCALES.values():
+            assert all(r.runs(s) for r in cl.rows), (cl.id, s.name)
+            assert len(cl.score({}, s)) == len(cl.rows)            # one verdict a row
+    # a new claim on a run of Fig. 14 and a series: it is one more entry, nothing else
+    new = reg.PaperClaim(
+        "fig99", "Fig. 99",
+        (reg.Row("fig99a", "a claim", "the paper's", "a criterion",
+                 lambda s: ["cylinder_sand_seed1"], note="a note"),),
+        lambda curves, scale: [reg.scoring.Verdict(not curves, "ours")],
+        figures=(reg.Picture("fig99_beads", "cylinder_sand_seed1", "beads", "iso", -1,
+                             "Fig. 99 — a picture"),),
+        series=("cylinder_sand_seed1",))
+    s = SCALES["tiny"]
+    with pytest.MonkeyPatch.context() as mp:
+        mp.setattr(reg, "CLAIMS", reg.CLAIMS + (new,))
+        assert reg.claim_runs(s)["fig99a"] == ["cylinder_sand_seed1"]
+        assert reg.select_claims("fig99", s) == ["fig99a"]
+        assert [c["name"] for c in reg.cases_for(s, only="fig99")] == ["cylinder_sand_seed1"]
+        (c,) = [c for c in reg.evaluate({}, {}, s) if c.id == "fig99a"]
+        assert (c.figure, c.outcome, c.status, c.note) == ("Fig. 99", "reproduced",
+                                                           "not comparable", "a note")
+        assert [f.key for f in reg.figures_of(["fig99a"])] == ["fig99_beads"]
+        assert reg.series_runs()[-1] == "cylinder_sand_seed1"
+        mp.setattr(reg, "CLAIMS", reg.CLAIMS + (dataclasses.replace(
+            new, id="fig98", rows=(dataclasses.replace(new.rows[0], id="fig98a",
+                                                       runs=lambda s: ["no_such_run"]),)),))
+        with pytest.raises(ValueError, match="runs that no case makes: no_such_run"):
+            reg.cases_for(s)
+
+
+class _Reads(dict):
+    """Curves that record the names asked for (and have none)."""
+
+    def __init__(self):
+        super().__init__()
+        self.asked = set()
+
+    def get(self, name, default=None):
+        self.asked.add(name)
+        return default
+
+
+@pytest.mark.filterwarnings("ignore:No artists with labels found")   # (empty figures)
+def test_each_claim_reads_only_the_runs_of_its_rows(tmp_path):
+    """A claim's scoring and figures read no run its rows do not list (so ``--only`` and
+    ``cases_for`` never leave out a run a claim reads)."""
+    from workbench.paper import registry as reg
+
+    for s in SCALES.values():
+        for cl in reg.CLAIMS:
+            curves = _Reads()
+            cl.score(curves, s)
+            if s.name != "paper":          # (the figures drawn at two scales: time)
+                for f in cl.figures:
+                    if isinstance(f, reg.Plot):
+                        f.draw(curves, s, tmp_path / f.file)
+            assert curves.asked <= set(cl.runs(s)), (s.name, cl.id, curves.asked)
+
+
+def test_paper_case_keeps_the_name_the_committed_tables_key_runs_by(tmp_path):
+    """The sweep table keys a case by its function's module and name: paper_case is still
+    ``workbench.paper.paper_case`` for campaign.sweep, so the committed tables' runs are found
+    (every case of the paper-scale Fig. 7-10 table is a case of ``cases_for``)."""
+    from campaign import case_key, load_table
+    from workbench.paper import paper_case
+
+    table = RESULTS / "paper-scale-slope-20261202-0919-sweep.json"
+    keys = {case_key(paper_case, c) for c in cases_for(SCALES["paper"], only="fig7,fig8-9,fig10")}
+    rows = load_table(table).rows
+    assert len(rows) == 12 and {r["key"] for r in rows} == keys
+
+
+@pytest.mark.parametrize("stem, scale", [("paper-scale-slope-20261202-0919", "paper"),
+                                         ("paper-scale-slope-20261202-0428-rescored", "paper"),
+                                         ("default-fig10-20261202-0449", "default")])
+def test_the_committed_runs_rescore_to_the_committed_claims(stem, scale):
+    """``evaluate`` on the committed curves and table gives the committed claims.json, word
+    for word (the criteria of these reports are today's)."""
+    from campaign import load_table
+    from workbench.paper import evaluate, read_curves
+
+    committed = json.loads((RESULTS / f"{stem}-claims.json").read_text())
+    runs = RESULTS / (stem.replace("-rescored", "") + "-runs")
+    table = RESULTS / (stem.replace("-rescored", "") + "-sweep.json")
+    rows = {r["params"]["name"]: r for r in load_table(table).rows}
+    curves = {p.name[:-len(".curves.h5")]: read_curves(p) for p in runs.glob("*.curves.h5")}
+    ids = [c["id"] for c in committed]
+    claims = [c.__dict__ for c in evaluate(curves, rows, SCALES[scale]) if c.id in ids]
+    assert claims == committed

@@ -21,7 +21,7 @@
                [--cluster NAME --cluster-option NAME=VALUE ... --workers N]
                [--only CLAIMS] [--threads T] [--reuse-only | --runs NAME,NAME]
                                              reproduce the paper's §3: DIR/report.md, figures,
-                                             runs, series (workbench/paper.py)
+                                             runs, series (workbench/paper/)
     nscd sweep TEST --grid NAME=V1,V2 ... [--out TABLE.json] [--scheduler ADDRESS|serial]
                [--cluster local|slurm|pbs|... --cluster-option NAME=VALUE ... --workers N]
                                              independent runs of a test on Dask (campaign)

@@ -533,9 +533,9 @@ def test_each_claim_reads_only_the_runs_of_its_rows(tmp_path):
 
 def test_paper_case_keeps_the_name_the_committed_tables_key_runs_by(tmp_path):
     """The sweep table keys a case by its function's module and name: paper_case is still
-    ``workbench.paper.paper_case`` for campaign.sweep, so the committed tables' runs are found
+    ``workbench.paper.paper_case`` for workbench.campaign.sweep, so the committed tables' runs are found
     (every case of the paper-scale Fig. 7-10 table is a case of ``cases_for``)."""
-    from campaign import case_key, load_table
+    from workbench.campaign import case_key, load_table
     from workbench.paper import paper_case
 
     table = RESULTS / "paper-scale-slope-20261202-0919-sweep.json"
@@ -550,7 +550,7 @@ def test_paper_case_keeps_the_name_the_committed_tables_key_runs_by(tmp_path):
 def test_the_committed_runs_rescore_to_the_committed_claims(stem, scale):
     """``evaluate`` on the committed curves and table gives the committed claims.json, word
     for word (the criteria of these reports are today's)."""
-    from campaign import load_table
+    from workbench.campaign import load_table
     from workbench.paper import evaluate, read_curves
 
     committed = json.loads((RESULTS / f"{stem}-claims.json").read_text())

@@ -7,7 +7,7 @@ report.
     report = build_report("out/paper", scale="tiny")       # or "default", "paper"
     report.path          # out/paper/report.md
 
-Every simulation is one case of a :func:`campaign.sweep` (Dask: a LocalCluster of
+Every simulation is one case of a :func:`workbench.campaign.sweep` (Dask: a LocalCluster of
 two workers, or ``scheduler=`` an address, or "serial"), so a re-run skips the cases already
 done (``out/paper/sweep.json``).  Each case writes its HDF5 history (``runs/<name>.h5``) and
 the curves the figures need (``runs/<name>.curves.h5``).  The report then draws the

@@ -49,7 +49,7 @@ def build_report(out="out/paper", scale="default", *, scheduler=None, progress=T
     the runs, the series and the sweep table.
 
     ``scheduler``: None (a LocalCluster of 2 workers), "serial", a scheduler address, or a
-    :class:`campaign.ClusterSpec` (``nscd paper --cluster``), handed to :func:`campaign.sweep`.
+    :class:`workbench.campaign.ClusterSpec` (``nscd paper --cluster``), handed to :func:`workbench.campaign.sweep`.
     ``only``: some claims (ids or figure prefixes, :func:`select_claims`), e.g. "fig14":
     the report then runs, scores and draws those claims alone (the way to take one figure
     to the paper's scale on a small machine).
@@ -83,7 +83,7 @@ def build_report(out="out/paper", scale="default", *, scheduler=None, progress=T
     if reuse_only or names is not None:
         table, not_run = _run_some(cases, names, out, scheduler, fixed, progress)
     else:
-        from campaign import sweep
+        from workbench.campaign import sweep
 
         table, not_run = sweep(paper_case, cases, scheduler, out=out / "sweep.json",
                                fixed=fixed, progress=progress), []
@@ -125,7 +125,7 @@ def _run_some(cases, names, out, scheduler, fixed, progress):
     """(table, names not run) of a build that reuses the runs done in ``out``: with
     ``names``, those runs are made first; without (reuse_only), none, and nothing is
     written to the table (a build may be running in the same folder)."""
-    from campaign import SweepTable, case_key, expand_grid, load_table, sweep
+    from workbench.campaign import SweepTable, case_key, expand_grid, load_table, sweep
 
     ran = {}
     t_ran = 0.0

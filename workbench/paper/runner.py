@@ -66,7 +66,7 @@ def paper_case(*, test: str, name: str, wire: str, k=None, seed: int = 0, runs_d
     and go on from it when the case runs again (``resume``): a session, a job or a worker
     that ends mid-run loses at most that many steps."""
     from engine import experiments
-    from campaign import not_interrupted, scalars_of
+    from workbench.campaign import not_interrupted, scalars_of
 
     os.makedirs(runs_dir, exist_ok=True)
     history = os.path.join(runs_dir, f"{name}.h5")
@@ -170,6 +170,6 @@ def _cylinder_curves(res, history) -> dict:
 
 
 # The sweep table keys each case by its function's module and name
-# ("workbench.paper.paper_case", campaign.case_key): the name it had before the package
+# ("workbench.paper.paper_case", workbench.campaign.case_key): the name it had before the package
 # was split, so that the tables and runs of earlier builds are still found and reused.
 paper_case.__module__ = "workbench.paper"

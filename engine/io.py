@@ -37,6 +37,7 @@ import h5py
 import numpy as np
 
 from . import laws as _laws
+from . import schedules as _schedules
 from .errors import FileProblem, FormatError, RunLocked, WriteFailed  # noqa: F401  (engine.io.FileProblem)
 from .model import SPHERE, Drive, Model, Options
 from .analysis.energy import kinetic_energy  # noqa: F401  (engine.io.kinetic_energy)
@@ -263,7 +264,7 @@ MODEL_UNITS = {
 STATE_UNITS = {
     "time": "s", "time_compensation": "s", "last_dt": "s",
     "position": "m", "vel6": "columns: m/s, m/s, m/s, rad/s, rad/s, rad/s", "force": "N",
-    "load": "N",
+    "load": "N", "drive_pressure": "Pa", "drive_area": "m^2",
     "pairs": "-", "pairs_ref": "m", "warm_key": "-", "warm_impulse": "N s",
     "link_i": "-", "link_j": "-", "link_impulse": "N s", "link_broken": "-",
     "link_normal": "-", "link_gap": "m", "link_excluded_next": "-",
@@ -364,6 +365,9 @@ def _write_model(g, model: Model, strict: bool) -> None:
         for what, v, unit in (("value", d.value, _DRIVE_UNITS[d.kind]), ("area", d.area, "m^2")):
             if v is None:
                 continue
+            if isinstance(v, _schedules.Schedule):     # data: the file holds it whole
+                sub.attrs[f"{what}_schedule"] = json.dumps(_schedules.to_dict(v))
+                continue
             if callable(v):
                 if strict:
                     raise ValueError(
@@ -404,6 +408,8 @@ def _read_model(g, callables=None) -> Model:
             if what in sub:
                 a = sub[what][()]
                 vals[what] = float(a) if sub.attrs[f"{what}_scalar"] else np.asarray(a, float)
+            elif f"{what}_schedule" in sub.attrs:
+                vals[what] = _schedules.from_dict(json.loads(sub.attrs[f"{what}_schedule"]))
             elif f"{what}_callable" in sub.attrs:
                 vals[what] = callables.pop((body, what), None) or UnsavedCallable(
                     body, kind, what, str(sub.attrs[f"{what}_callable"]))
@@ -441,7 +447,7 @@ def _write_state(g, state: State) -> None:
     arrays, numbers = [], {}
     for f in dataclasses.fields(State):
         v = getattr(state, f.name)
-        if f.name in _STATE_SPECIAL:
+        if f.name in _STATE_SPECIAL or v is None:     # None: made when first needed
             continue
         if isinstance(v, np.ndarray):
             _dataset(g, f.name, v, STATE_UNITS.get(f.name, "unspecified"))

@@ -328,7 +328,9 @@ def _callable_name(fn) -> str:
 
 
 class UnsavedCallable:
-    """Stands for a drive's Python callable that a history file could not store.
+    """Stands for a drive's Python callable that a history file could not store: a user's
+    own law of time or area (the experiments' drives are schedules, :mod:`engine.schedules`,
+    which files hold whole).
 
     Rendering and analysis work; stepping raises a ``ValueError`` saying what to supply
     (``load(path, callables={(body, "value" or "area"): fn})``).

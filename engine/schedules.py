@@ -89,20 +89,21 @@ class Ramp(Schedule):
 @dataclass(frozen=True)
 class Servo(Schedule):
     """A value an updater sets from the state between steps (``by`` names it, e.g.
-    ``"box faces"``); ``initial`` is the value before it first runs (nan: none; a step
-    that reads it then stops with an error naming the drive)."""
+    ``"box faces"``); ``initial`` is the value before it first runs (None: none; a step
+    that reads it then stops with an error naming the drive and ``by``)."""
 
     by: str
-    initial: float = math.nan
+    initial: float | None = None
 
     def __post_init__(self):
         if not isinstance(self.by, str) or not self.by:
             raise ValueError(f"Servo: by must name the updater that sets the value, got "
                              f"{self.by!r}")
-        object.__setattr__(self, "initial", float(self.initial))
+        if self.initial is not None:
+            object.__setattr__(self, "initial", _finite(self.initial, "initial", "Servo"))
 
     def at(self, step: int) -> float:
-        return self.initial
+        return math.nan if self.initial is None else self.initial
 
 
 #: The schedule types a file may name (:func:`from_dict`).

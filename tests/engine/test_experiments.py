@@ -221,12 +221,12 @@ def test_compaction_friction_holds_in_the_isotropic_stage_only(monkeypatch, tmp_
     seen = []
     run = common.Stages.run
 
-    def spy(self, n):
+    def spy(self, n, **kw):
         m = self.model
         law = m.pair_law
         seen.append((m.law_param[law[m.group_id("sand"), m.group_id("sand")], 0],
                      m.law_param[law[m.group_id("wire"), m.group_id("sand")], 0]))
-        return run(self, n)
+        return run(self, n, **kw)
 
     monkeypatch.setattr(common.Stages, "run", spy)
     r = box_triaxial(0.02, axial_strain=0.002, iso_max_steps=50, compaction_mu=0.05,

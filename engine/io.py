@@ -834,6 +834,12 @@ class Checkpoint:
 
     ``path`` may contain ``{step}`` (e.g. ``"ckpt_{step:07d}.h5"``); otherwise the file is
     replaced each time (atomically).
+
+    With updaters (schedules, servo walls, a membrane: :mod:`engine.trigger`), give it as
+    the **last updater** instead (``run(..., updaters=[..., Checkpoint(path, n)])``; it has
+    :meth:`update` too): the writers of a step run before its updaters, so a checkpoint
+    saved as a writer holds the state without what they set at that step, and a run
+    resumed from it would go on without it.
     """
 
     def __init__(self, path, trigger: Callable[[int], bool] | int = 1000):
@@ -844,6 +850,8 @@ class Checkpoint:
 
     def write(self, model, state) -> None:
         save(self.path.format(step=state.step), model, state)
+
+    update = write      # as the last updater: the state with what the updaters set
 
 
 # -- history -----------------------------------------------------------------------------------

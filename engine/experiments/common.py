@@ -244,6 +244,7 @@ class Stages:
         if interrupted."""
         progress = _Progress(self, self.report_every)
         self._started = time.perf_counter()
+        s = None
         try:
             with warnings.catch_warnings():
                 warnings.simplefilter("ignore", NonConvergenceWarning)
@@ -251,8 +252,8 @@ class Stages:
                         progress=False, updaters=updaters, until=until)
         finally:
             self._started = None
-        if progress.shown != self.steps or s.steps == 0:
-            progress.show()
+            if progress.shown != self.steps or (s is not None and s.steps == 0):
+                progress.show()         # the bar where the stage ended (or failed)
         self.wall_time += s.wall_time
         self.condition_met = s.condition_met
         if s.interrupted:
@@ -658,7 +659,8 @@ def rest_recording(model, state, ids, *, history, record_every, frames, progress
                           frames, resume_step=None if resumed is None else resumed.steps,
                           meta=meta)
     try:
-        stages = Stages(model, state, [rec, hist], progress=progress, total=steps, desc=desc)
+        stages = Stages(model, state, [rec, hist], progress=progress, total=steps, desc=desc,
+                        report_every=record_every)
         if checkpoint is not None:
             checkpoint.recorder, checkpoint.history = rec, hist
             if resumed is not None:

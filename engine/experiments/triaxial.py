@@ -182,24 +182,19 @@ def cylinder_triaxial(scale: float = 0.05, *, sample=None, preparation: str = "g
     Raises ValueError for bad input (naming it), ConvergenceError when more than
     ``max_nonconverged`` of the steps hit ``max_iter``.
     """
-    cfg = _config("cylinder_triaxial", dict(locals()))
-    cfg.compaction_mu = _compaction_mu(compaction_mu, CYLINDER_COMPACTION_MU_MIN,
-                                       " (at 0 the free-surface confinement let the "
-                                       "frictionless grains out)")
+    cfg = _config("cylinder_triaxial", dict(locals()), CYLINDER_COMPACTION_MU_MIN,
+                  " (at 0 the free-surface confinement let the frictionless grains out)")
     st, deposit, cfg.law = _prepared("cylinder_triaxial", Cylinder, cylinder_sample, vars(cfg))
-    _check_width(st, cfg.scale)
     rig = _cylinder_rig(st, cfg)
     _loading_rate(cfg, rig)
     rec, hist, stages = _recording(rig, cfg, "cylinder_triaxial", CYLINDER_UNITS,
-                                   _cylinder_values(rig))
+                                   _cylinder_values(rig), confine_every)
     try:
-        stages.set_stage("isotropic")
         cfg.iso_reached = _cylinder_isotropic(stages, rig, cfg)
         _loading(stages, rig, cfg)
         if not stages.interrupted:
             stages.run(rig.n_load, updaters=_cylinder_loading_updaters(rig, cfg))
-        stages.record_last()
-        rig.strains = _best_fit(rig.ref, rig.state, rig.sand, rig.bead_ids)
+        _ended(stages, rig)
     finally:
         stages.close()
         hist.close()
@@ -418,20 +413,18 @@ def box_triaxial(scale: float = 0.05, *, sample=None, preparation: str = "geomet
     the particles (Fig. 12).
     """
     cfg = _config("box_triaxial", dict(locals()))
-    cfg.compaction_mu = _compaction_mu(compaction_mu)
     st, deposit, cfg.law = _prepared("box_triaxial", Box, box_sample, vars(cfg))
     rig = _box_rig(st, cfg)
     _loading_rate(cfg, rig)
-    rec, hist, stages = _recording(rig, cfg, "box_triaxial", BOX_UNITS, _box_values(rig))
+    rec, hist, stages = _recording(rig, cfg, "box_triaxial", BOX_UNITS, _box_values(rig),
+                                   check_every)
     try:
-        stages.set_stage("isotropic")
         cfg.iso_reached = _isotropic(stages, rig, cfg, check_every, _box_measure(rig),
                                      [rig.faces])
         _loading(stages, rig, cfg)
         if not stages.interrupted:
             stages.run(rig.n_load, updaters=[rig.faces])
-        stages.record_last()
-        rig.strains = _best_fit(rig.ref, rig.state, rig.sand, rig.bead_ids)
+        _ended(stages, rig)
     finally:
         stages.close()
         hist.close()
@@ -440,14 +433,16 @@ def box_triaxial(scale: float = 0.05, *, sample=None, preparation: str = "geomet
 
 
 # -- the stages of both tests -----------------------------------------------------------------
-def _config(test, args) -> SimpleNamespace:
+def _config(test, args, least_mu=0.0, why="") -> SimpleNamespace:
     """A test's arguments (its ``locals()`` on entry) checked, with the scale and the solver
-    choice resolved, ``p`` and ``eps_max`` as floats."""
+    choice resolved, ``p`` and ``eps_max`` as floats, ``compaction_mu`` checked to be at
+    least ``least_mu`` (``why``: the reason, for the message)."""
     check_args(test, args)
     cfg = SimpleNamespace(**args)
     cfg.scale = check_scale(cfg.scale)
     cfg.anderson, cfg.hot_sweeps = solver_choice(cfg.anderson, cfg.hot_sweeps)
     cfg.p, cfg.eps_max = float(cfg.pressure), float(cfg.axial_strain)
+    cfg.compaction_mu = _compaction_mu(cfg.compaction_mu, least_mu, why)
     return cfg
 
 
@@ -530,16 +525,17 @@ class _SplitRecorder(Recorder):
         return self.fn(model, state)
 
 
-def _recording(rig, cfg, test, units, values):
+def _recording(rig, cfg, test, units, values, every):
     """(recorder, history, stages) of a triaxial test: ``values(model, state)`` (a dict of
     the ``units``' keys) recorded every ``record_every`` steps into the HDF5 history, the
-    stages starting on the isotropic stage's model (:func:`_compaction`)."""
+    stages starting on the isotropic stage's model (:func:`_compaction`) and reporting
+    every ``every`` steps."""
     rec = _SplitRecorder(values, tuple(units), cfg.record_every)
     hist = history_writer(cfg.history, rec, units, cfg.record_every, cfg.frames,
                           meta=run_meta(test, cfg.est_steps, **_meta(rig, cfg)))
     stages = Stages(_compaction(rig.model, cfg.compaction_mu), rig.state, [rec, hist],
                     progress=cfg.progress, total=cfg.est_steps,
-                    desc=test.replace("_", " "))
+                    desc=test.replace("_", " "), report_every=every)
     return rec, hist, stages
 
 
@@ -582,6 +578,7 @@ def _isotropic(stages, rig, cfg, every, measure, updaters) -> bool:
     ``iso_max_steps`` rounded up to a multiple of ``every``.  Returns whether it held; if
     not, a RuntimeWarning says so with the stresses reached (the loading then starts from
     there, and the result's ``params["iso_reached"]`` is False)."""
+    stages.set_stage("isotropic")
     until = _Isotropic(rig, cfg, every, measure)
     trigger = until.trigger
     steps = -(-cfg.iso_max_steps // every) * every
@@ -616,6 +613,13 @@ def _loading(stages, rig, cfg) -> None:
         model = _prestrained(model, state, cfg.wire_prestrain)
     rig.model = stages.model = model.with_drive(rig.top, velocity=(0.0, 0.0, -cfg.rate * rig.H0))
     rig.n_load = int(math.ceil(cfg.eps_max / (cfg.rate * cfg.dt)))
+
+
+def _ended(stages, rig) -> None:
+    """After the loading: the end state to the writers that have not recorded it
+    (:meth:`Stages.record_last`), the best-fit strains of the loading (Eq. 19)."""
+    stages.record_last()
+    rig.strains = _best_fit(rig.ref, rig.state, rig.sand, rig.bead_ids)
 
 
 def _params(rig, cfg, deposit) -> dict:
@@ -695,6 +699,7 @@ def _cylinder_rig(st, cfg) -> _Rig:
     pressure ramp on the area π R² of the membrane (:class:`MembraneUpdater`, every
     ``confine_every`` steps), whose loads go on sand grains only (a cell's share on a light
     wire bead accelerates it by ~1e6 m/s² and blew the run up); the membrane applied once."""
+    _check_width(st, cfg.scale)
     axis = st.axis()
     sc, sand, bead_ids = _scene(st, cfg)
     floor = sc.add_plane(point=(axis[0], axis[1], st.floor), normal=(0, 0, 1), group="wall")

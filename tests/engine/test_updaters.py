@@ -197,3 +197,17 @@ def test_a_schedule_survives_save_and_load_and_the_run_resumes_bit_for_bit(tmp_p
 
 def _faces(b):
     return b.floor, b.top, b.sides
+
+
+def test_a_checkpoint_as_the_last_updater_resumes_a_servo_box_bit_for_bit(tmp_path):
+    """engine.io.Checkpoint given as the last updater saves the state with what the
+    updaters set at that step (as a writer it would save it before them): run on from the
+    file of step 25, the box ends where the run that never stopped does."""
+    model, state, updaters, top = servo_box()
+    run(model, state, 40, progress=False,
+        updaters=[*updaters, io.Checkpoint(str(tmp_path / "c_{step}.h5"), 25)])
+    m2, s2 = io.load(tmp_path / "c_25.h5")
+    assert s2.step == 25
+    run(m2, s2, 15, progress=False, updaters=[FollowSchedules(5), BoxFaces(*_faces(updaters[1]))])
+    for name in ("position", "vel6", "drive_pressure", "drive_area"):
+        assert np.array_equal(getattr(s2, name), getattr(state, name)), name

@@ -75,8 +75,9 @@ def drive_forces(model, state) -> None:
             p = float(d.value(t)) if callable(d.value) else float(pressure[d.body])
             area = float(d.area(model, state)) if callable(d.area) else float(areas[d.body])
             if not np.isfinite(p):
+                by = f" (not set yet by {d.value.by})" if hasattr(d.value, "by") else ""
                 raise ValueError(f"pressure drive on body {d.body}: the pressure must be "
-                                 f"finite [Pa], got {p!r} at t={t:g} s")
+                                 f"finite [Pa], got {p!r} at t={t:g} s{by}")
             if not np.isfinite(area) or area < 0.0:
                 by = f" (not set yet by {d.area.by})" if hasattr(d.area, "by") else ""
                 raise ValueError(f"pressure drive on body {d.body}: area must be finite and "
@@ -117,10 +118,17 @@ class Confinement:
         away together: seen on samples of about 250 grains, where R grew 150-200 times and
         the run went on to a meaningless end.  A sample that holds together bulges by a few
         per cent.
+    start_radius : float [m] > 0 or None
+        The radius ``max_growth`` is measured against (None: the first :meth:`apply`'s).
+        Going on from a checkpoint, give the first run's :attr:`start_radius`.
+
+    The membrane owns the loads of its particles: the first :meth:`apply` clears them all
+    (so a new Confinement on a state read from a checkpoint takes over the loads the saved
+    one left), each later one those of the previous surface particles.
     """
 
     def __init__(self, pressure: float, ids, *, center=(0.0, 0.0), cell: float | None = None,
-                 max_growth: float | None = 1.5):
+                 max_growth: float | None = 1.5, start_radius: float | None = None):
         p = float(pressure)
         if not (np.isfinite(p) and p >= 0):
             raise ValueError(f"pressure must be finite and >= 0 [Pa], got {pressure!r}")
@@ -134,7 +142,15 @@ class Confinement:
                                  f"{max_growth!r}")
             max_growth = g
         self.max_growth = max_growth
-        self.start_radius = None
+        if start_radius is not None:
+            r0 = float(start_radius) if isinstance(start_radius, (int, float, np.number)) \
+                and not isinstance(start_radius, bool) else float("nan")
+            if not (np.isfinite(r0) and r0 > 0):
+                raise ValueError(f"start_radius must be a radius > 0 [m] (or None), got "
+                                 f"{start_radius!r}")
+            start_radius = r0
+        self.start_radius = start_radius
+        self.applied = False            # the first apply clears the loads of all the ids
         self.pressure = p
         self.ids = np.asarray(ids, dtype=np.int64)
         if self.ids.size == 0:
@@ -203,7 +219,8 @@ class Confinement:
         (clearing the previous loads); ``lever`` [m]: the distance from each centre to the
         membrane along e_r (the branch of its membrane "contact")."""
         f = self.pressure * area
-        state.load[self.ids[self.surface]] = 0.0
+        state.load[self.ids if not self.applied else self.ids[self.surface]] = 0.0
+        self.applied = True
         self.surface = top
         er = np.stack([np.cos(theta[top]), np.sin(theta[top]), np.zeros(top.size)], 1)
         state.load[self.ids[top]] = -f[:, None] * er
@@ -248,8 +265,9 @@ class LayerCrown(Confinement):
     """
 
     def __init__(self, pressure: float, ids, *, center=(0.0, 0.0), layer: float | None = None,
-                 max_growth: float | None = 1.5):
-        super().__init__(pressure, ids, center=center, max_growth=max_growth)
+                 max_growth: float | None = 1.5, start_radius: float | None = None):
+        super().__init__(pressure, ids, center=center, max_growth=max_growth,
+                         start_radius=start_radius)
         if layer is not None:
             t = float(layer)
             if not (np.isfinite(t) and t > 0):
@@ -314,7 +332,10 @@ class MembraneUpdater(Updater):
     drive on body ``pressure_of`` (the top plate's, so both follow one schedule), and
     :meth:`Confinement.apply` recomputes the surface particles' loads in ``state.load``; the
     top plate's area (``Servo("membrane")``) becomes π R², R the membrane's radius.
-    :meth:`apply` does the same once, outside a run (the set-up)."""
+    :meth:`apply` does the same once, outside a run (the set-up).  What the next step reads
+    (the loads, the plate's pressure and area) is in the State; going on from a checkpoint,
+    a new membrane with the saved run's ``start_radius`` takes over (:class:`Confinement`)
+    and the run goes on bit for bit."""
 
     def __init__(self, membrane: "Confinement", top: int, every=1):
         self.membrane, self.top = membrane, int(top)

@@ -211,3 +211,49 @@ def test_a_checkpoint_as_the_last_updater_resumes_a_servo_box_bit_for_bit(tmp_pa
     run(m2, s2, 15, progress=False, updaters=[FollowSchedules(5), BoxFaces(*_faces(updaters[1]))])
     for name in ("position", "vel6", "drive_pressure", "drive_area"):
         assert np.array_equal(getattr(s2, name), getattr(state, name)), name
+
+
+def membrane_column(seed=1):
+    """The cylinder triaxial test's isotropic stage in small: a scale-0.04 sand sample on a
+    fixed floor under a top plate whose pressure is a ramp (raised every 5 steps) on the
+    membrane's area π R² (``Servo``), the free-surface membrane updated every 5 steps."""
+    from engine.drivers import Confinement, MembraneUpdater
+    from engine.prep import cylinder_sample
+
+    smp = cylinder_sample(0.04, wire=False, seed=seed)
+    s = Scene(gravity=(0, 0, -G))
+    sand = smp.add_to(s)[0]
+    floor = s.add_plane(point=(0, 0, 0), normal=(0, 0, 1), group="wall")
+    top = s.add_plane(point=(0, 0, smp.height), normal=(0, 0, -1), group="wall")
+    s.drive(top, pressure=Ramp(0.0, 15e3, 20, every=5), mass=1e-3, area=Servo("membrane"))
+    s.fix(floor)
+    s.interact("sand", "sand", laws.Coulomb(mu=0.5))
+    s.interact("sand", "wall", laws.Coulomb(mu=0.5))
+    model, state = s.compile(dt=5e-5, tol=3e-4, max_iter=1000)
+    membrane = MembraneUpdater(Confinement(0.0, sand), top, 5)
+    membrane.apply(model, state)
+    return model, state, sand, top, membrane
+
+
+def test_a_membrane_run_resumes_from_its_checkpoint_bit_for_bit(tmp_path):
+    """The membrane's loads and the plate's pressure and area are in the State: saved after
+    step 20 and loaded, the column goes on with a new membrane (the first run's start
+    radius) and ends at step 40 where the run that never stopped does, bit for bit."""
+    from engine.drivers import Confinement, MembraneUpdater
+
+    model, state, sand, top, membrane = membrane_column()
+    run(model, state, 40, progress=False, updaters=[FollowSchedules(5), membrane])
+    assert state.drive_pressure[top] == 15e3 and np.abs(state.load[sand]).sum() > 0
+    ref = state
+
+    model, state, sand, top, membrane = membrane_column()
+    run(model, state, 20, progress=False,
+        updaters=[FollowSchedules(5), membrane, io.Checkpoint(str(tmp_path / "c.h5"), 20)])
+    m2, s2 = io.load(tmp_path / "c.h5")
+    again = MembraneUpdater(Confinement(0.0, sand, start_radius=membrane.membrane.start_radius),
+                            top, 5)
+    run(m2, s2, 20, progress=False, updaters=[FollowSchedules(5), again])
+    for name in ("position", "vel6", "load", "drive_pressure", "drive_area"):
+        assert np.array_equal(getattr(s2, name), getattr(ref, name)), name
+    with pytest.raises(ValueError, match=r"start_radius must be a radius > 0 \[m\]"):
+        Confinement(1.0, sand, start_radius=-1.0)

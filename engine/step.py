@@ -168,11 +168,11 @@ def _stages(model, state) -> StepStats:
     return stats
 
 
-def _check_ops(ops, kind: str, method: str) -> list:
+def _check_ops(ops, kind: str, one: str, method: str) -> list:
     ops = list(ops)
     for k, o in enumerate(ops):
         if not (callable(getattr(o, "trigger", None)) and callable(getattr(o, method, None))):
-            raise ValueError(f"{kind}[{k}] = {o!r}: a {kind[:-1]} needs trigger(step) -> bool "
+            raise ValueError(f"{kind}[{k}] = {o!r}: {one} needs trigger(step) -> bool "
                              f"and {method}(model, state)")
     return ops
 
@@ -352,8 +352,8 @@ def run(model, state, steps: int, writers: Iterable = (), progress: bool = True,
     """
     if not isinstance(steps, (int, np.integer)) or steps < 0:
         raise ValueError(f"steps must be an integer >= 0, got {steps!r}")
-    writers = _check_ops(writers, "writers", "write")
-    updaters = _check_ops(updaters, "updaters", "update")
+    writers = _check_ops(writers, "writers", "a writer", "write")
+    updaters = _check_ops(updaters, "updaters", "an updater", "update")
     if until is not None and not callable(until):
         raise ValueError(f"until must be a callable (model, state) -> bool or None, got {until!r}")
     summary = RunSummary()
@@ -388,11 +388,11 @@ def run(model, state, steps: int, writers: Iterable = (), progress: bool = True,
         start = getattr(w, "write_start", None)
         if start is not None:
             start(model, state)
-    for u in updaters:                  # what an updater sets before the first step
-        start = getattr(u, "start", None)
-        if start is not None:
-            start(model, state)
     try:
+        for u in updaters:              # what an updater sets before the first step
+            start = getattr(u, "start", None)
+            if start is not None:
+                start(model, state)
         for _ in range(int(steps)):
             if _stop.requested():        # also a request made before the run started
                 stop["flag"] = True

@@ -122,7 +122,7 @@ def test_run_without_updaters_is_as_before_and_bad_ones_are_named():
     run(a, sa, 20, [], False)
     run(b, sb, 20, progress=False, updaters=[CallbackUpdater(lambda m, s: None, 3)])
     assert np.array_equal(sa.position, sb.position) and np.array_equal(sa.vel6, sb.vel6)
-    with pytest.raises(ValueError, match=r"updaters\[0\] = 3: a updater needs trigger"):
+    with pytest.raises(ValueError, match=r"updaters\[0\] = 3: an updater needs trigger"):
         run(a, sa, 1, progress=False, updaters=[3])
     with pytest.raises(ValueError, match="CallbackUpdater: trigger must be an int >= 1"):
         CallbackUpdater(lambda m, s: None, "often")

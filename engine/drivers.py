@@ -5,16 +5,26 @@
 * force: a constant or time-dependent force [N] added to the body's external force.  On a
   wall, the wall then moves along the force's line of action only, with its own mass.
 * pressure: on a plane, the force p · A · n [N] along the plane normal n (towards the
-  spheres), A [m²] the current wall area (a constant, or a callable ``(model, state)``
-  re-evaluated every step); the plane moves along n with its own mass.
+  spheres), A [m²] the current wall area; the plane moves along n with its own mass.  The
+  current p and A are in the State (``state.drive_pressure``, ``state.drive_area``, per
+  body, :func:`drive_values`), set from the drive's schedules (:mod:`engine.schedules`:
+  a constant, a :class:`~engine.schedules.Ramp` advanced by
+  :class:`~engine.schedules.FollowSchedules`, a :class:`~engine.schedules.Servo` set by an
+  updater such as :class:`BoxFaces` or :class:`MembraneUpdater`); a Python callable given
+  instead (``t -> p``, ``(model, state) -> A``) is evaluated at every step, as before
+  schedules existed, and cannot be saved in a checkpoint.
 
 Walls feel no gravity; a driven wall's mass only sets its inertia.
 """
 from __future__ import annotations
 
+import math
+
 import numpy as np
 
 from .errors import ConfinementError  # noqa: F401  (its home until 2026-12-05)
+from .schedules import Schedule
+from .trigger import Updater, as_trigger
 
 
 def _vector(value, what: str) -> np.ndarray:
@@ -24,21 +34,54 @@ def _vector(value, what: str) -> np.ndarray:
     return v
 
 
+def _initial(value, step: int) -> float:
+    if isinstance(value, Schedule):
+        return float(value.at(step))
+    if value is None or callable(value):
+        return 0.0                      # a callable is evaluated at each step instead
+    return float(value)
+
+
+def drive_values(model, state) -> tuple[np.ndarray, np.ndarray]:
+    """``(state.drive_pressure, state.drive_area)``, (nb,) [Pa] and [m²]: the current
+    pressure and area of each pressure-driven wall (0 elsewhere, and for a callable,
+    evaluated at each step instead; nan for a :class:`~engine.schedules.Servo` no updater
+    has set yet).  Made from the drives' schedules at ``state.step`` when
+    the state has none (a state built by hand, or read from a file written before
+    schedules)."""
+    if state.drive_pressure is None or state.drive_area is None:
+        n = model.n_bodies
+        pressure, area = np.zeros(n), np.zeros(n)
+        for d in model.drives:
+            if d.kind == "pressure":
+                pressure[d.body] = _initial(d.value, state.step)
+                area[d.body] = _initial(d.area, state.step)
+        state.drive_pressure, state.drive_area = pressure, area
+    return state.drive_pressure, state.drive_area
+
+
 def drive_forces(model, state) -> None:
     """Fill ``state.force`` [N] with ``state.load`` plus the force and pressure drives at the
-    current time."""
+    current time (a pressure drive: its current pressure and area in the state,
+    :func:`drive_values`, or its callables evaluated now)."""
     f = state.force
     f[:] = state.load
     t = state.time
+    pressure, areas = drive_values(model, state) if model.drives else (None, None)
     for d in model.drives:
         if d.kind == "force":
             f[d.body] += _vector(d.at(t), f"force drive on body {d.body} at t={t:g} s")
         elif d.kind == "pressure":
-            p = float(d.at(t))
-            area = float(d.area(model, state)) if callable(d.area) else float(d.area)
+            p = float(d.value(t)) if callable(d.value) else float(pressure[d.body])
+            area = float(d.area(model, state)) if callable(d.area) else float(areas[d.body])
+            if not np.isfinite(p):
+                by = f" (not set yet by {d.value.by})" if hasattr(d.value, "by") else ""
+                raise ValueError(f"pressure drive on body {d.body}: the pressure must be "
+                                 f"finite [Pa], got {p!r} at t={t:g} s{by}")
             if not np.isfinite(area) or area < 0.0:
+                by = f" (not set yet by {d.area.by})" if hasattr(d.area, "by") else ""
                 raise ValueError(f"pressure drive on body {d.body}: area must be finite and "
-                                 f">= 0 m², got {area!r} at t={t:g} s")
+                                 f">= 0 m², got {area!r} at t={t:g} s{by}")
             f[d.body] += p * area * model.body_axis[d.body]
 
 
@@ -75,10 +118,17 @@ class Confinement:
         away together: seen on samples of about 250 grains, where R grew 150-200 times and
         the run went on to a meaningless end.  A sample that holds together bulges by a few
         per cent.
+    start_radius : float [m] > 0 or None
+        The radius ``max_growth`` is measured against (None: the first :meth:`apply`'s).
+        Going on from a checkpoint, give the first run's :attr:`start_radius`.
+
+    The membrane owns the loads of its particles: the first :meth:`apply` clears them all
+    (so a new Confinement on a state read from a checkpoint takes over the loads the saved
+    one left), each later one those of the previous surface particles.
     """
 
     def __init__(self, pressure: float, ids, *, center=(0.0, 0.0), cell: float | None = None,
-                 max_growth: float | None = 1.5):
+                 max_growth: float | None = 1.5, start_radius: float | None = None):
         p = float(pressure)
         if not (np.isfinite(p) and p >= 0):
             raise ValueError(f"pressure must be finite and >= 0 [Pa], got {pressure!r}")
@@ -92,7 +142,15 @@ class Confinement:
                                  f"{max_growth!r}")
             max_growth = g
         self.max_growth = max_growth
-        self.start_radius = None
+        if start_radius is not None:
+            r0 = float(start_radius) if isinstance(start_radius, (int, float, np.number)) \
+                and not isinstance(start_radius, bool) else float("nan")
+            if not (np.isfinite(r0) and r0 > 0):
+                raise ValueError(f"start_radius must be a radius > 0 [m] (or None), got "
+                                 f"{start_radius!r}")
+            start_radius = r0
+        self.start_radius = start_radius
+        self.applied = False            # the first apply clears the loads of all the ids
         self.pressure = p
         self.ids = np.asarray(ids, dtype=np.int64)
         if self.ids.size == 0:
@@ -161,7 +219,8 @@ class Confinement:
         (clearing the previous loads); ``lever`` [m]: the distance from each centre to the
         membrane along e_r (the branch of its membrane "contact")."""
         f = self.pressure * area
-        state.load[self.ids[self.surface]] = 0.0
+        state.load[self.ids if not self.applied else self.ids[self.surface]] = 0.0
+        self.applied = True
         self.surface = top
         er = np.stack([np.cos(theta[top]), np.sin(theta[top]), np.zeros(top.size)], 1)
         state.load[self.ids[top]] = -f[:, None] * er
@@ -206,8 +265,9 @@ class LayerCrown(Confinement):
     """
 
     def __init__(self, pressure: float, ids, *, center=(0.0, 0.0), layer: float | None = None,
-                 max_growth: float | None = 1.5):
-        super().__init__(pressure, ids, center=center, max_growth=max_growth)
+                 max_growth: float | None = 1.5, start_radius: float | None = None):
+        super().__init__(pressure, ids, center=center, max_growth=max_growth,
+                         start_radius=start_radius)
         if layer is not None:
             t = float(layer)
             if not (np.isfinite(t) and t > 0):
@@ -235,3 +295,57 @@ class LayerCrown(Confinement):
         self._check_growth(R, state)
         area = 2 * np.pi * r_out[lay[crown]] * thick * rad[crown] / share[lay[crown]]
         return self._load(state, crown, theta, area, r_out[lay[crown]] - d[crown], R, z1 - z0)
+
+
+class BoxFaces(Updater):
+    """The servo areas of a box's pressure-driven walls (``Servo("box faces")``), every
+    ``every`` steps (default each step) and before a run's first step: side wall k of
+    ``sides`` (x−, x+, y−, y+) gets the face H × w (H = z_top − z_floor, w the span of the
+    other pair of sides), the top L_x × L_y, each from the walls' positions [m²]; so that
+    p × A stays the stress p on the faces of a sample that deforms."""
+
+    def __init__(self, floor: int, top: int, sides, every=1):
+        self.floor, self.top = int(floor), int(top)
+        self.sides = tuple(int(b) for b in sides)
+        if len(self.sides) != 4:
+            raise ValueError(f"BoxFaces: sides must be the 4 side walls (x-, x+, y-, y+), got "
+                             f"{sides!r}")
+        self.trigger = as_trigger(every, "BoxFaces")
+
+    def start(self, model, state) -> None:
+        self.update(model, state)
+
+    def update(self, model, state) -> None:
+        x = state.position
+        s0, s1, s2, s3 = self.sides
+        _, area = drive_values(model, state)
+        H = x[self.top, 2] - x[self.floor, 2]
+        for k, b in enumerate(self.sides):
+            other, ax = ((s2, s3), 1) if k < 2 else ((s0, s1), 0)
+            area[b] = H * (x[other[1], ax] - x[other[0], ax])
+        area[self.top] = (x[s1, 0] - x[s0, 0]) * (x[s3, 1] - x[s2, 1])
+
+
+class MembraneUpdater(Updater):
+    """A :class:`Confinement` (or :class:`LayerCrown`) as an updater: every ``every`` steps
+    (an int, or a callable ``step -> bool``) the membrane takes the current pressure of the
+    drive on body ``pressure_of`` (the top plate's, so both follow one schedule), and
+    :meth:`Confinement.apply` recomputes the surface particles' loads in ``state.load``; the
+    top plate's area (``Servo("membrane")``) becomes π R², R the membrane's radius.
+    :meth:`apply` does the same once, outside a run (the set-up).  What the next step reads
+    (the loads, the plate's pressure and area) is in the State; going on from a checkpoint,
+    a new membrane with the saved run's ``start_radius`` takes over (:class:`Confinement`)
+    and the run goes on bit for bit."""
+
+    def __init__(self, membrane: "Confinement", top: int, every=1):
+        self.membrane, self.top = membrane, int(top)
+        self.trigger = as_trigger(every, "MembraneUpdater")
+
+    def apply(self, model, state) -> None:
+        pressure, area = drive_values(model, state)
+        self.membrane.pressure = float(pressure[self.top])
+        self.membrane.apply(model, state)
+        area[self.top] = math.pi * self.membrane.radius ** 2
+
+    def update(self, model, state) -> None:
+        self.apply(model, state)

@@ -38,6 +38,7 @@ import h5py
 import numpy as np
 
 from . import laws as _laws
+from . import schedules as _schedules
 from .errors import FileProblem, FormatError, RunLocked, WriteFailed  # noqa: F401  (engine.io.FileProblem)
 from .model import SPHERE, Drive, Model, Options
 from .analysis.energy import kinetic_energy  # noqa: F401  (engine.io.kinetic_energy)
@@ -264,7 +265,7 @@ MODEL_UNITS = {
 STATE_UNITS = {
     "time": "s", "time_compensation": "s", "last_dt": "s",
     "position": "m", "vel6": "columns: m/s, m/s, m/s, rad/s, rad/s, rad/s", "force": "N",
-    "load": "N",
+    "load": "N", "drive_pressure": "Pa", "drive_area": "m^2",
     "pairs": "-", "pairs_ref": "m", "warm_key": "-", "warm_impulse": "N s",
     "link_i": "-", "link_j": "-", "link_impulse": "N s", "link_broken": "-",
     "link_normal": "-", "link_gap": "m", "link_excluded_next": "-",
@@ -329,7 +330,9 @@ def _callable_name(fn) -> str:
 
 
 class UnsavedCallable:
-    """Stands for a drive's Python callable that a history file could not store.
+    """Stands for a drive's Python callable that a history file could not store: a user's
+    own law of time or area (the experiments' drives are schedules, :mod:`engine.schedules`,
+    which files hold whole).
 
     Rendering and analysis work; stepping raises a ``ValueError`` saying what to supply
     (``load(path, callables={(body, "value" or "area"): fn})``).
@@ -365,6 +368,9 @@ def _write_model(g, model: Model, strict: bool) -> None:
         sub.attrs["kind"] = d.kind
         for what, v, unit in (("value", d.value, _DRIVE_UNITS[d.kind]), ("area", d.area, "m^2")):
             if v is None:
+                continue
+            if isinstance(v, _schedules.Schedule):     # data: the file holds it whole
+                sub.attrs[f"{what}_schedule"] = json.dumps(_schedules.to_dict(v))
                 continue
             if callable(v):
                 if strict:
@@ -406,6 +412,8 @@ def _read_model(g, callables=None) -> Model:
             if what in sub:
                 a = sub[what][()]
                 vals[what] = float(a) if sub.attrs[f"{what}_scalar"] else np.asarray(a, float)
+            elif f"{what}_schedule" in sub.attrs:
+                vals[what] = _schedules.from_dict(json.loads(sub.attrs[f"{what}_schedule"]))
             elif f"{what}_callable" in sub.attrs:
                 vals[what] = callables.pop((body, what), None) or UnsavedCallable(
                     body, kind, what, str(sub.attrs[f"{what}_callable"]))
@@ -443,7 +451,7 @@ def _write_state(g, state: State) -> None:
     arrays, numbers = [], {}
     for f in dataclasses.fields(State):
         v = getattr(state, f.name)
-        if f.name in _STATE_SPECIAL:
+        if f.name in _STATE_SPECIAL or v is None:     # None: made when first needed
             continue
         if isinstance(v, np.ndarray):
             _dataset(g, f.name, v, STATE_UNITS.get(f.name, "unspecified"))
@@ -828,6 +836,12 @@ class Checkpoint:
 
     ``path`` may contain ``{step}`` (e.g. ``"ckpt_{step:07d}.h5"``); otherwise the file is
     replaced each time (atomically).
+
+    With updaters (schedules, servo walls, a membrane: :mod:`engine.trigger`), give it as
+    the **last updater** instead (``run(..., updaters=[..., Checkpoint(path, n)])``; it has
+    :meth:`update` too): the writers of a step run before its updaters, so a checkpoint
+    saved as a writer holds the state without what they set at that step, and a run
+    resumed from it would go on without it.
     """
 
     def __init__(self, path, trigger: Callable[[int], bool] | int = 1000):
@@ -838,6 +852,8 @@ class Checkpoint:
 
     def write(self, model, state) -> None:
         save(self.path.format(step=state.step), model, state)
+
+    update = write      # as the last updater: the state with what the updaters set
 
 
 # -- history -----------------------------------------------------------------------------------

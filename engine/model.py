@@ -179,8 +179,10 @@ class Drive:
     """An imposed velocity, force or pressure on one body (see :meth:`Scene.drive`).
 
     ``kind`` is ``"velocity"``, ``"force"`` or ``"pressure"``; ``value`` is a (3,) array
-    [m/s] or [N], a float [Pa], or a callable of time ``t`` [s] returning that;
-    ``area`` [m²] (pressure only) is a float or a callable ``(model, state) -> float``.
+    [m/s] or [N], a float [Pa], a schedule (pressure only, :mod:`engine.schedules`: data,
+    its current value in ``state.drive_pressure``), or a callable of time ``t`` [s]
+    returning that; ``area`` [m²] (pressure only) is a float, a schedule
+    (``state.drive_area``) or a callable ``(model, state) -> float``.
     """
 
     body: int
@@ -189,7 +191,8 @@ class Drive:
     area: object = None
 
     def at(self, t: float):
-        """The drive value at time ``t`` [s]."""
+        """The drive value at time ``t`` [s] (a schedule as it is: its current value is in
+        the State, :func:`engine.drivers.drive_values`)."""
         return self.value(t) if callable(self.value) else self.value
 
 

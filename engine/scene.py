@@ -14,6 +14,7 @@ from . import laws as _laws
 from .contact.broadphase import build_pairs
 from .model import (CAP_BOTTOM, CAP_TOP, CYLINDER, FREE, IMPOSED, LINE, PLANE, SPHERE, Drive,
                     Model, Options, pack_body_dyn)
+from .schedules import Schedule
 from .state import State
 
 #: Overlap allowed at compile time, as a fraction of the smaller radius.
@@ -369,13 +370,17 @@ class Scene:
         force : (3,) [N] or callable t -> (3,)
             Imposed external force.  On a wall, the wall moves along the force's line of
             action with mass ``mass``.
-        pressure : float [Pa] or callable t -> float
+        pressure : float [Pa], schedule or callable t -> float
             Planes only: force p · A · n along the plane normal (towards the spheres); the
-            plane moves along its normal with mass ``mass``.
+            plane moves along its normal with mass ``mass``.  A schedule
+            (:mod:`engine.schedules`: ``Constant``, ``Ramp``, ``Servo``) is data, saved
+            with the model; its current value is ``state.drive_pressure[body]``.
         mass : float [kg], > 0
             Required for a force- or pressure-driven wall.
-        area : float [m²] or callable (model, state) -> float
-            Current wall area, required with ``pressure``.
+        area : float [m²], schedule or callable (model, state) -> float
+            Current wall area, required with ``pressure`` (a ``Servo``: set by an updater,
+            ``state.drive_area[body]``).  A callable is evaluated at every step and cannot
+            be saved in a checkpoint.
         """
         b = int(self._check_ids(body, "body")[0])
         given = [k for k, v in (("velocity", velocity), ("force", force), ("pressure", pressure))
@@ -389,7 +394,10 @@ class Scene:
         if b in self._drives:
             raise ValueError(f"body {b} already has a {self._drives[b].kind} drive")
         is_wall = self._kind[b] != SPHERE
-        if not callable(value):
+        if isinstance(value, Schedule) and kind != "pressure":
+            raise ValueError(f"{kind}: a schedule ({type(value).__name__}) drives a pressure "
+                             f"only; give a {kind} (3,) or a callable of time")
+        if not callable(value) and not isinstance(value, Schedule):
             if kind == "pressure":
                 if not isinstance(value, numbers.Real) or not np.isfinite(value):
                     raise ValueError(f"pressure must be a finite number [Pa], got {value!r}")
@@ -403,7 +411,7 @@ class Scene:
             if area is None:
                 raise ValueError("pressure drive needs area= [m²] (a float or a callable "
                                  "(model, state) -> float)")
-            if not callable(area):
+            if not callable(area) and not isinstance(area, Schedule):
                 area = _positive(area, "area", "[m²]")
         elif area is not None:
             raise ValueError("area= is only meaningful with a pressure drive")

@@ -165,6 +165,12 @@ class State:
     load : (nb, 3) float64 [N]
         External loads set by the user between steps (e.g. the confinement of free-surface
         particles, :class:`engine.drivers.Confinement`); they stay until changed.
+    drive_pressure : (nb,) float64 [Pa] or None
+        Current pressure of each pressure-driven wall (0 for other bodies), from its
+        drive's schedule (:mod:`engine.schedules`) or set by an updater; what the next step
+        applies.  None until :func:`engine.drivers.drive_values` makes it (Scene.compile does).
+    drive_area : (nb,) float64 [m²] or None
+        Current area of each pressure-driven wall (0 elsewhere), likewise.
     contacts_buf : ContactBuffers
         Active contacts of the last step.
     pairs : (cap, 2) int32 ; n_pairs : int
@@ -204,6 +210,8 @@ class State:
     step: int = 0
     force: np.ndarray = None
     load: np.ndarray = None
+    drive_pressure: np.ndarray = None
+    drive_area: np.ndarray = None
     contacts_buf: ContactBuffers = None
     pairs: np.ndarray = None
     n_pairs: int = 0

@@ -16,7 +16,23 @@ The order of one step (each stage a public function of ``(model, state)``, testa
    impulses found, until the contacts no longer change or :data:`LATE_PASSES` times;
 4. :func:`engine.integrator.update` — q_{i+1} = q_m + θ h v_{i+1}; time advances by h.
 
-:func:`run` then calls every writer whose trigger fires (writers never modify the state).
+:func:`run` then, after each complete step n (``state.step`` = n):
+
+5. the checks of :mod:`engine.sanity` (NaN/Inf, overlap, a sphere through a wall);
+6. every **writer** whose ``trigger(n)`` fires, in list order (writers never modify the
+   state: they see the step as it was computed, with the drive values it used);
+7. every **updater** whose ``trigger(n)`` fires, in list order (:class:`Updater`): it may
+   change the state (``state.load``, the drive values ``state.drive_pressure`` and
+   ``state.drive_area``, ...); what it sets acts from step n + 1 on, and an updater later in
+   the list sees what an earlier one set;
+8. the stop condition ``until`` (when its trigger fires): true ends the run after step n;
+9. a Ctrl-C / SIGTERM request ends the run after step n (its updaters have run, so the state
+   is a restart point whatever the step).
+
+HOOMD-blue's ``Simulation.run`` runs its updaters at the start of the next step with the
+trigger of the step just done: the same order, except at the ends of a run (here the
+updaters of a run's last step run, and none before its first; an updater's optional
+``start(model, state)`` is called before the first step instead).
 """
 from __future__ import annotations
 
@@ -37,6 +53,7 @@ from .sanity import (ENERGY_WARN, OVERLAP_WARN, THROUGH, PhysicsWarning, energy_
 from .solver.nlgs import _break_links, solve
 from .solver.residual import natural_residual
 from .state import ContactBuffers, StepStats
+from .trigger import CallbackUpdater, Updater, every  # noqa: F401  (public here)
 
 
 #: Most extra solves of one step for contacts closed by the solve itself (:func:`step`).
@@ -154,12 +171,22 @@ def _stages(model, state) -> StepStats:
     return stats
 
 
-def every(n: int) -> Callable[[int], bool]:
-    """Trigger firing every ``n`` steps (on step numbers that are multiples of n)."""
-    if int(n) < 1:
-        raise ValueError(f"every(n): n must be >= 1, got {n!r}")
-    n = int(n)
-    return lambda s: s % n == 0
+def _check_ops(ops, kind: str, one: str, method: str) -> list:
+    ops = list(ops)
+    for k, o in enumerate(ops):
+        if not (callable(getattr(o, "trigger", None)) and callable(getattr(o, method, None))):
+            raise ValueError(f"{kind}[{k}] = {o!r}: {one} needs trigger(step) -> bool "
+                             f"and {method}(model, state)")
+    return ops
+
+
+def _until_met(until, model, state) -> bool:
+    if until is None:
+        return False
+    trigger = getattr(until, "trigger", None)
+    if trigger is not None and not trigger(state.step):
+        return False
+    return bool(until(model, state))
 
 
 class CallbackWriter:
@@ -209,6 +236,8 @@ class RunSummary:
         the summary says so.
     energy_gain_step : int
         The step it was seen (-1: none).
+    condition_met : bool
+        The run's ``until`` condition ended it.
     """
 
     steps: int = 0
@@ -223,6 +252,7 @@ class RunSummary:
     max_overlap_step: int = -1
     energy_gain: float = 0.0
     energy_gain_step: int = -1
+    condition_met: bool = False
 
     def __str__(self) -> str:
         nc = len(self.non_converged)
@@ -278,18 +308,29 @@ def _check_finite(model, state) -> None:
             f"check dt = {model.options.dt:g} s, drives and overlaps")
 
 
-def run(model, state, steps: int, writers: Iterable = (), progress: bool = True) -> RunSummary:
-    """Run ``steps`` steps of :func:`step`, calling writers after each step when they fire.
+def run(model, state, steps: int, writers: Iterable = (), progress: bool = True, *,
+        updaters: Iterable = (), until=None) -> RunSummary:
+    """Run at most ``steps`` steps of :func:`step`; after each step, the writers, then the
+    updaters, then the stop condition, each when its trigger fires (the module docstring
+    has the order).
 
     Parameters
     ----------
     steps : int >= 0
+        At most this many steps (fewer when ``until`` ends the run, or Ctrl-C).
     writers : iterable of writers (``trigger(step)``, ``write(model, state)``, optional
         ``flush()``); they run after a complete step and never modify the state.  A
         writer's optional ``write_start(model, state)`` is called before the first step
         (:class:`engine.io.History` writes the start state as its first frame there).
     progress : bool
         Show a tqdm progress bar with the step rate, NLGS sweeps and contacts.
+    updaters : iterable of updaters (:class:`Updater`: ``trigger(step)``,
+        ``update(model, state)``, optional ``start(model, state)``), run in list order after
+        the writers of each step whose number fires their trigger.
+    until : callable ``(model, state) -> bool`` or None
+        The stop condition, looked at after the updaters (only on the steps its own
+        ``trigger(step)`` fires, if it has one): true ends the run
+        (``RunSummary.condition_met``).
 
     Returns
     -------
@@ -314,7 +355,10 @@ def run(model, state, steps: int, writers: Iterable = (), progress: bool = True)
     """
     if not isinstance(steps, (int, np.integer)) or steps < 0:
         raise ValueError(f"steps must be an integer >= 0, got {steps!r}")
-    writers = list(writers)
+    writers = _check_ops(writers, "writers", "a writer", "write")
+    updaters = _check_ops(updaters, "updaters", "an updater", "update")
+    if until is not None and not callable(until):
+        raise ValueError(f"until must be a callable (model, state) -> bool or None, got {until!r}")
     summary = RunSummary()
     stop = {"flag": False}
 
@@ -348,6 +392,10 @@ def run(model, state, steps: int, writers: Iterable = (), progress: bool = True)
         if start is not None:
             start(model, state)
     try:
+        for u in updaters:              # what an updater sets before the first step
+            start = getattr(u, "start", None)
+            if start is not None:
+                start(model, state)
         for _ in range(int(steps)):
             if _stop.requested():        # also a request made before the run started
                 stop["flag"] = True
@@ -376,6 +424,11 @@ def run(model, state, steps: int, writers: Iterable = (), progress: bool = True)
             for w in writers:
                 if w.trigger(state.step):
                     w.write(model, state)
+            for u in updaters:
+                if u.trigger(state.step):
+                    u.update(model, state)
+            if _until_met(until, model, state):
+                summary.condition_met = True
             if bar is not None:
                 bar.update(1)
                 if summary.steps % 20 == 0 or summary.steps == steps:
@@ -384,6 +437,8 @@ def run(model, state, steps: int, writers: Iterable = (), progress: bool = True)
                                     refresh=False)
             if stop["flag"]:
                 summary.interrupted = True
+                break
+            if summary.condition_met:
                 break
     finally:
         if summary.interrupted or stop["flag"]:
@@ -417,5 +472,5 @@ def run(model, state, steps: int, writers: Iterable = (), progress: bool = True)
     return summary
 
 
-__all__ = ["step", "run", "every", "CallbackWriter", "RunSummary", "SimulationError",
-           "NonConvergenceWarning"]
+__all__ = ["step", "run", "every", "Updater", "CallbackUpdater", "CallbackWriter",
+           "RunSummary", "SimulationError", "NonConvergenceWarning"]

@@ -1,5 +1,7 @@
 """Pieces shared by the paper's three tests: result object, loading-rate choice from the
-inertial number, convergence bookkeeping, recorders, the staged run loop."""
+inertial number, convergence bookkeeping, recorders, the stages (:class:`Stages`: each one
+:func:`engine.step.run` with its updaters and stop condition), the run to rest
+(:class:`AtRest`, :class:`SaveCheckpoint`, :func:`rest_run`) and its checkpoints."""
 from __future__ import annotations
 
 import contextlib
@@ -10,6 +12,7 @@ import json
 import math
 import os
 import sys
+import time
 import warnings
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -21,6 +24,7 @@ from ..laws import DEFAULT_STIFFNESS
 from ..scene import check_bool  # noqa: F401  (the experiments import it from here)
 from ..errors import ConvergenceError, NonConvergenceWarning
 from ..step import run
+from ..trigger import Updater
 
 __all__ = ["TestResult", "ConvergenceError", "inertial_rate", "check_scale"]
 
@@ -212,46 +216,92 @@ def report_stages_to(fn):
         _REPORT.reset(token)
 
 
-class Stages:
-    """Runs a test in chunks (so drivers can be updated between them), with one tqdm bar,
-    counts non-converged steps, stops on Ctrl-C, and keeps the recorders.  After each
-    chunk it reports ``(test name[, stage], steps done, total)`` to the function set by
-    :func:`report_stages_to`, if any (``total``: the test's upper bound on its steps)."""
+class _Progress:
+    """The writer that keeps a test's counts as its steps go: after each step, the steps
+    done and the non-converged ones (:class:`Stages`, so that a checkpoint saved by an
+    updater has them), and every ``every`` steps (and at the end of each
+    :meth:`Stages.run`) the test's one tqdm bar and the report ``(test name[, stage], steps
+    done, total)`` to the function set by :func:`report_stages_to`.  It reads the state."""
 
-    def __init__(self, model, state, writers, *, progress, total, desc):
+    def __init__(self, stages, every: int):
+        self.stages, self.every = stages, max(1, int(every))
+        self.shown = stages.steps
+
+    def trigger(self, step) -> bool:
+        return True
+
+    def write(self, model, state) -> None:
+        st = self.stages
+        st.steps += 1
+        if not state.stats.converged:
+            st.non_converged.append(state.step)
+        if st.steps - self.shown >= self.every:
+            self.show()
+
+    def show(self) -> None:
+        st = self.stages
+        if st.bar is not None:
+            st.bar.update(st.steps - self.shown)
+            st.bar.set_postfix(nc=len(st.non_converged), refresh=False)
+        self.shown = st.steps
+        if st.report is not None:
+            st.report(st.desc if st.stage is None else f"{st.desc}, {st.stage}",
+                      st.steps, st.total)
+
+
+class Stages:
+    """Runs the stages of a test (each a :func:`engine.step.run` with its updaters and stop
+    condition) with one tqdm bar, counts non-converged steps, stops on Ctrl-C, and keeps the
+    recorders.  Every ``report_every`` steps it reports ``(test name[, stage], steps done,
+    total)`` to the function set by :func:`report_stages_to`, if any (``total``: the test's
+    upper bound on its steps)."""
+
+    def __init__(self, model, state, writers, *, progress, total, desc, report_every=10):
         self.model, self.state, self.writers = model, state, list(writers)
         self.desc, self.total = desc, int(total)
         self.stage = None
         self.report = _REPORT.get()
+        self.report_every = report_every
         self.steps = 0
         self.wall_time = 0.0  # [s] spent in the steps (writers included), not in the set-up
         self.non_converged = []
         self.resumed_from = []      # the steps a resumed run went on from (RestCheckpoint)
         self.other_code_at = []     # those of them where the engine's code had changed
         self.interrupted = False
+        self.condition_met = False  # the last run's stop condition ended it
+        self._started = None        # perf_counter() at the start of the running stage
         self.bar = None
         if progress:
             from tqdm.auto import tqdm
             self.bar = tqdm(total=int(total), unit="step", desc=desc, dynamic_ncols=True,
                             mininterval=0.1 if sys.stderr.isatty() else 10.0)
 
-    def run(self, n):
-        """Run n steps; False if interrupted."""
-        with warnings.catch_warnings():
-            warnings.simplefilter("ignore", NonConvergenceWarning)
-            s = run(self.model, self.state, int(n), writers=self.writers, progress=False)
-        self.steps += s.steps
+    def run(self, n, updaters=(), until=None):
+        """Run at most n steps of ``self.model`` with these updaters and stop condition
+        (:func:`engine.step.run`; ``steps`` and ``non_converged`` count as it goes); False
+        if interrupted."""
+        progress = _Progress(self, self.report_every)
+        self._started = time.perf_counter()
+        s = None
+        try:
+            with warnings.catch_warnings():
+                warnings.simplefilter("ignore", NonConvergenceWarning)
+                s = run(self.model, self.state, int(n), writers=self.writers + [progress],
+                        progress=False, updaters=updaters, until=until)
+        finally:
+            self._started = None
+            if progress.shown != self.steps or (s is not None and s.steps == 0):
+                progress.show()         # the bar where the stage ended (or failed)
         self.wall_time += s.wall_time
-        self.non_converged += s.non_converged
-        if self.bar is not None:
-            self.bar.update(s.steps)
-            self.bar.set_postfix(nc=len(self.non_converged), refresh=False)
-        if self.report is not None:
-            self.report(self.desc if self.stage is None else f"{self.desc}, {self.stage}",
-                        self.steps, self.total)
+        self.condition_met = s.condition_met
         if s.interrupted:
             self.interrupted = True
         return not s.interrupted
+
+    def elapsed(self) -> float:
+        """[s] spent in the steps so far, the running stage's included."""
+        return self.wall_time + (0.0 if self._started is None
+                                 else time.perf_counter() - self._started)
 
     def set_stage(self, name):
         """Name the stage now running (``"isotropic"``, ``"loading"``): the bar and the
@@ -289,36 +339,72 @@ class Stages:
                     non_converged_steps=self.non_converged[:1000])
 
 
+class AtRest(Updater):
+    """The rest criterion of a run to rest, an updater at the end of each chunk of ``every``
+    steps (and at the run's last step, ``steps``): the kinetic energy ``energy(model,
+    state)`` [J] is
+    at most ``ke_fraction`` of its peak so far, looked at from the 10th chunk on (a sample
+    released at rest gains energy first).  The steps are counted from the start of the run
+    (the :class:`Stages`' count), so a resumed run (``peak``, ``at_rest`` from its
+    checkpoint) looks on the same steps as one that never stopped.  The run's stop
+    condition is :attr:`at_rest`."""
+
+    def __init__(self, stages, steps, every, ke_fraction, energy, peak=0.0, at_rest=False):
+        self.stages, self.steps, self.every = stages, int(steps), int(every)
+        self.ke_fraction, self.energy = ke_fraction, energy
+        self.peak, self.at_rest = peak, at_rest
+
+    def trigger(self, step) -> bool:
+        n = self.stages.steps
+        return n % self.every == 0 or n == self.steps
+
+    def update(self, model, state) -> None:
+        ke = self.energy(model, state)
+        self.peak = max(self.peak, ke)
+        self.at_rest = (self.stages.steps >= 10 * self.every and self.peak > 0
+                        and ke <= self.ke_fraction * self.peak)
+
+    def __call__(self, model, state) -> bool:
+        return self.at_rest
+
+
+class SaveCheckpoint(Updater):
+    """The updater saving a run to rest's :class:`RestCheckpoint` every ``checkpoint.every``
+    steps of the run while it is not at rest (after :class:`AtRest`, whose peak it keeps)."""
+
+    def __init__(self, checkpoint: "RestCheckpoint", stages, rest: AtRest):
+        self.checkpoint, self.stages, self.rest = checkpoint, stages, rest
+        self.saved_at = None
+
+    def trigger(self, step) -> bool:
+        return not self.rest.at_rest and self.checkpoint.due(self.stages.steps)
+
+    def update(self, model, state) -> None:
+        self.checkpoint.save(self.stages, self.rest.peak, self.rest.at_rest)
+        self.saved_at = self.stages.steps
+
+
 def run_to_rest(stages: Stages, steps: int, every: int, ke_fraction: float, energy,
                 checkpoint: "RestCheckpoint | None" = None,
                 resumed: "Resumed | None" = None) -> bool:
-    """Run ``stages`` in chunks of ``every`` steps until ``energy()`` [J] (read after each
-    chunk) is at most ``ke_fraction`` of its peak so far, or ``steps`` steps in all, or an
-    interruption; then hand the end state to the writers (:meth:`Stages.record_last`).
-    The criterion is looked at after 10 chunks (a sample released at rest gains energy
-    first).  Returns whether the rest criterion was met.
+    """Run ``stages`` until it is at rest (:class:`AtRest`, every ``every`` steps), or
+    ``steps`` steps in all, or an interruption; then hand the end state to the writers
+    (:meth:`Stages.record_last`).  Returns whether the rest criterion was met.
 
-    ``checkpoint``: saved every ``checkpoint.every`` steps and at an interruption, so the
-    run can go on from there; ``resumed``: the run goes on from such a checkpoint (its
-    peak energy, whether it was at rest).  The chunks end on the same steps and the
-    criterion is looked at on the same ones as if the run had never stopped: a stop in the
-    last step of a chunk looks at it before saving."""
-    peak = 0.0 if resumed is None else resumed.peak
-    at_rest = False if resumed is None else resumed.at_rest
-    while not at_rest and stages.steps < steps:
-        ran = stages.run(min(every - stages.steps % every, steps - stages.steps))
-        if stages.steps % every == 0 or stages.steps == steps:       # a chunk's end
-            ke = energy()
-            peak = max(peak, ke)
-            at_rest = stages.steps >= 10 * every and peak > 0 and ke <= ke_fraction * peak
-        if not ran:
-            if checkpoint is not None:
-                checkpoint.save(stages, peak, at_rest)   # the step reached, before its end record
-            break
-        if not at_rest and checkpoint is not None and checkpoint.due(stages.steps):
-            checkpoint.save(stages, peak, at_rest)
+    ``checkpoint``: saved every ``checkpoint.every`` steps (:class:`SaveCheckpoint`) and at
+    an interruption, so the run can go on from there; ``resumed``: the run goes on from
+    such a checkpoint (its peak energy, whether it was at rest), and ends as if it had never
+    stopped: a stop in the last step of a chunk looks at it before saving."""
+    rest = AtRest(stages, steps, every, ke_fraction, energy,
+                  *(() if resumed is None else (resumed.peak, resumed.at_rest)))
+    save = None if checkpoint is None else SaveCheckpoint(checkpoint, stages, rest)
+    if not rest.at_rest and stages.steps < steps:
+        ran = stages.run(steps - stages.steps, updaters=[rest] + ([save] if save else []),
+                         until=rest)
+        if not ran and save is not None and save.saved_at != stages.steps:
+            checkpoint.save(stages, rest.peak, rest.at_rest)   # before its end record
     stages.record_last()
-    return at_rest
+    return rest.at_rest
 
 
 #: Arguments of a test that do not change its run (not part of a checkpoint's identity;
@@ -448,7 +534,7 @@ class RestCheckpoint:
 
         rec = self.recorder
         extra = {"identity": self.identity, "steps": stages.steps, "peak": float(peak),
-                 "at_rest": int(bool(at_rest)), "wall_time": stages.wall_time,
+                 "at_rest": int(bool(at_rest)), "wall_time": stages.elapsed(),
                  "run_id": self.history.run_id or "",
                  "resumed_from": np.asarray(stages.resumed_from, np.int64),
                  "other_code_at": np.asarray(stages.other_code_at, np.int64),
@@ -633,7 +719,8 @@ def rest_recording(model, state, ids, *, history, record_every, frames, progress
                           frames, resume_step=None if resumed is None else resumed.steps,
                           meta=meta)
     try:
-        stages = Stages(model, state, [rec, hist], progress=progress, total=steps, desc=desc)
+        stages = Stages(model, state, [rec, hist], progress=progress, total=steps, desc=desc,
+                        report_every=record_every)
         if checkpoint is not None:
             checkpoint.recorder, checkpoint.history = rec, hist
             if resumed is not None:
@@ -642,6 +729,50 @@ def rest_recording(model, state, ids, *, history, record_every, frames, progress
         hist.close()
         raise
     return rec, hist, stages
+
+
+@dataclass
+class RestRun:
+    """What :func:`rest_run` leaves: the state reached (the checkpoint's, when resumed),
+    the recorder of the time and the kinetic energy, the history, the stages and whether
+    the run came to rest."""
+
+    state: object
+    rec: Recorder
+    hist: object
+    stages: Stages
+    at_rest: bool
+
+
+def rest_run(model, state, ids, energy, cfg, *, desc, meta, checkpoint: RestCheckpoint,
+             record_start: bool = False) -> RestRun:
+    """A deposit's one stage: run under gravity until at rest (:func:`run_to_rest`:
+    ``energy(model, state)`` [J] at most ``cfg.ke_fraction`` of its peak, or ``cfg.steps``
+    steps), recording the time and the kinetic energy of ``ids`` every
+    ``cfg.record_every`` steps (:func:`rest_recording`); with ``cfg.resume``, from the
+    ``checkpoint`` a stopped run of the same call left.  ``record_start``: the start
+    state is the history's first record and frame (not on a resumed run).  The checkpoint
+    is removed when the run ends (kept when it was interrupted) and its lock released."""
+    resumed = checkpoint.load(model, cfg.history) if cfg.resume else None
+    if resumed is not None:
+        state = resumed.state
+    rec, hist, stages = rest_recording(model, state, ids, history=cfg.history,
+                                       record_every=cfg.record_every, frames=cfg.frames,
+                                       progress=cfg.progress, steps=cfg.steps, desc=desc,
+                                       checkpoint=checkpoint, resumed=resumed, meta=meta)
+    try:
+        if record_start and resumed is None:
+            rec.write(model, state)      # the start: step 0, record and frame
+            hist.write(model, state)
+        at_rest = run_to_rest(stages, cfg.steps, cfg.record_every, cfg.ke_fraction, energy,
+                              checkpoint=checkpoint, resumed=resumed)
+    finally:
+        stages.close()
+        hist.close()
+    if not stages.interrupted:
+        checkpoint.remove()
+    checkpoint.lock.release()
+    return RestRun(state, rec, hist, stages, at_rest)
 
 
 def interrupted_note(result) -> str:

@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from types import SimpleNamespace
 
 import numpy as np
 
@@ -15,9 +16,9 @@ from ..prep.samples import Sample
 from ..prep.relax import kinetic_energy
 from ..scene import Scene
 from .params import check_args
-from .common import (RestCheckpoint, RestResult, check_bool, check_scale, sample_identity,
-                     deposit_laws, finish, rest_recording, run_meta, rest_summary, run_identity,
-                     run_to_rest, solver_choice, wire_before_after, wire_law_or_default)
+from .common import (RestCheckpoint, RestResult, check_bool, check_scale, deposit_laws, finish,
+                     rest_run, rest_summary, run_identity, run_meta, sample_identity,
+                     solver_choice, wire_before_after, wire_law_or_default)
 
 __all__ = ["gravity_deposit", "DepositResult", "SAMPLES"]
 
@@ -116,85 +117,98 @@ def gravity_deposit(scale: float = 0.05, *, sample: str | Sample = "slope", wire
     """
     identity = run_identity(dict(locals(), sample=sample_identity(sample),
                                  test="gravity_deposit"))
-    given = isinstance(sample, Sample)
-    args = dict(locals())
-    if given:
-        if wire_density is not None:
+    cfg = _checked(SimpleNamespace(**locals()))
+    ckpt = RestCheckpoint(history, checkpoint_every, record_every, identity)
+    cfg.resume = check_bool("resume", resume)
+    smp, cfg.law = _sample(cfg)
+    model, state, sand, ids = _in_mould(smp, cfg)
+    chains0 = wire_chains(model, state) if cfg.wire else []
+    z0 = state.position[sand, 2].copy()
+    done = rest_run(model, state, sand, lambda m, s: kinetic_energy(m, s, sand), cfg,
+                    desc="gravity deposit", checkpoint=ckpt, record_start=True, meta=run_meta(
+                        "gravity_deposit", steps, scale=cfg.scale, seed=seed, sample=smp.name,
+                        wire=cfg.wire, wire_density=smp.wire_density, wire_law=cfg.law,
+                        neighbour_contact=neighbour_contact, dt=dt, theta=theta, tol=tol,
+                        max_iter=max_iter, mu=mu, mu_wall=mu_wall, mu_wire=mu_wire,
+                        steps=steps, ke_fraction=ke_fraction))
+    state = done.state
+    chains1 = wire_chains(model, state) if cfg.wire else []
+    res = DepositResult(
+        name="gravity_deposit", time=done.rec.array("time"),
+        kinetic_energy=done.rec.array("kinetic_energy"),
+        **wire_before_after(chains0, chains1, smp.container.volume),
+        settlement=float(np.mean(z0 - state.position[sand, 2])),
+        wall_force=-float(wall_forces(model, state)[:, 2].sum()),   # on the walls: downward
+        slack_share=float(np.mean(state.links.tension <= 0.0)) if model.n_links else math.nan,
+        weight=float(model.body_mass[ids].sum() * G), at_rest=done.at_rest,
+        history=done.hist.path, params=_params(cfg, smp))
+    return finish(res, done.stages, max_nonconverged)
+
+
+def _checked(cfg):
+    """The arguments checked (:func:`check_args`; a :class:`Sample` given against ``wire``
+    and ``wire_density``, ``wire`` then the sample's), the scale and solver choice
+    resolved; ``cfg.given``: a sample was given."""
+    sample = cfg.sample
+    cfg.given = isinstance(sample, Sample)
+    args = vars(cfg).copy()
+    if cfg.given:
+        if cfg.wire_density is not None:
             raise ValueError("gravity_deposit: wire_density builds the deposit's own sample; "
                              "with a Sample given, build the sample with it")
-        if not wire and sample.wire:
+        if not cfg.wire and sample.wire:
             raise ValueError(f"gravity_deposit: wire = False but the sample has a wire of "
                              f"{sample.n_beads} beads; give a sample built with wire=False")
         args["sample"] = sample.name if sample.name in SAMPLES else "slope"  # (checked below)
-        wire = bool(sample.wire)
+        cfg.wire = bool(sample.wire)
     check_args("gravity_deposit", args)
-    scale = check_scale(scale)
-    anderson, hot_sweeps = solver_choice(anderson, hot_sweeps)
-    ckpt = RestCheckpoint(history, checkpoint_every, record_every, identity)
-    resume = check_bool("resume", resume)
-    kw = dict(wire=wire, seed=seed)
-    if wire_density is not None:
-        kw["wire_density"] = wire_density
-    law = wire_law_or_default(wire_law) if wire else None
-    smp = sample if given else paper_sample(sample, scale, **kw)
+    cfg.scale = check_scale(cfg.scale)
+    cfg.anderson, cfg.hot_sweeps = solver_choice(cfg.anderson, cfg.hot_sweeps)
+    return cfg
+
+
+def _sample(cfg):
+    """(the geometric sample to relax: the one given, or :func:`engine.prep.paper_sample`'s;
+    the wire's law)."""
+    kw = dict(wire=cfg.wire, seed=cfg.seed)
+    if cfg.wire_density is not None:
+        kw["wire_density"] = cfg.wire_density
+    law = wire_law_or_default(cfg.wire_law) if cfg.wire else None
+    smp = cfg.sample if cfg.given else paper_sample(cfg.sample, cfg.scale, **kw)
     if not isinstance(smp.container, (Box, Cylinder)):
         raise ValueError(f"gravity_deposit: the sample's container is a "
                          f"{type(smp.container).__name__}; the mould is a Box or a Cylinder")
+    return smp, law
+
+
+def _in_mould(smp, cfg):
+    """(model, state, sand ids, particle ids) of the sample in its mould (:func:`_mould`:
+    its floor and side, open at the top, a little above the sand's top: the grains start at
+    rest and only settle; it also frames the pictures on the sample)."""
     sc = Scene(gravity=(0.0, 0.0, -G))
-    sand, beads = smp.add_to(sc, wire_law=law, neighbour_contact=neighbour_contact) if wire else (smp.add_to(sc)[0], [])
+    if cfg.wire:
+        sand, beads = smp.add_to(sc, wire_law=cfg.law, neighbour_contact=cfg.neighbour_contact)
+    else:
+        sand, beads = smp.add_to(sc)[0], []
     ids = np.concatenate([sand, *beads]) if beads else np.asarray(sand)
-    # the grains start at rest and only settle: a side a little above the sand's top holds
-    # them (and frames the pictures on the sample)
     lo, hi = smp.container.bounds()
     _mould(sc, smp.container, 1.1 * max(hi[2] - lo[2], smp.height))
-    deposit_laws(sc, "wall", mu=mu, mu_support=mu_wall, mu_wire=mu_wire, wire=wire)
-    model, state = sc.compile(dt=dt, theta=theta, tol=tol, max_iter=max_iter, relax=relax,
-                              anderson=anderson, threads=threads, hot_sweeps=hot_sweeps)
-    chains0 = wire_chains(model, state) if wire else []
-    z0 = state.position[sand, 2].copy()
-    resumed = ckpt.load(model, history) if resume else None
-    if resumed is not None:
-        state = resumed.state
+    deposit_laws(sc, "wall", mu=cfg.mu, mu_support=cfg.mu_wall, mu_wire=cfg.mu_wire,
+                 wire=cfg.wire)
+    model, state = sc.compile(dt=cfg.dt, theta=cfg.theta, tol=cfg.tol, max_iter=cfg.max_iter,
+                              relax=cfg.relax, anderson=cfg.anderson, threads=cfg.threads,
+                              hot_sweeps=cfg.hot_sweeps)
+    return model, state, sand, ids
 
-    rec, hist, stages = rest_recording(model, state, sand, history=history,
-                                       record_every=record_every, frames=frames,
-                                       progress=progress, steps=steps, desc="gravity deposit",
-                                       checkpoint=ckpt, resumed=resumed,
-                                       meta=run_meta(
-                                           "gravity_deposit", steps, scale=scale, seed=seed,
-                                           sample=smp.name, wire=wire,
-                                           wire_density=smp.wire_density,
-                                           wire_law=law, neighbour_contact=neighbour_contact,
-                                           dt=dt, theta=theta, tol=tol, max_iter=max_iter,
-                                           mu=mu, mu_wall=mu_wall, mu_wire=mu_wire, steps=steps,
-                                           ke_fraction=ke_fraction))
-    try:
-        if resumed is None:
-            rec.write(model, state)      # the geometric sample: step 0, record and frame
-            hist.write(model, state)
-        at_rest = run_to_rest(stages, steps, record_every, ke_fraction,
-                              lambda: kinetic_energy(model, state, sand), checkpoint=ckpt,
-                              resumed=resumed)
-    finally:
-        stages.close()
-        hist.close()
-    if not stages.interrupted:
-        ckpt.remove()
-    ckpt.lock.release()
-    fz = float(wall_forces(model, state)[:, 2].sum())       # on the walls: < 0 (downward)
-    weight = float(model.body_mass[ids].sum() * G)
-    chains1 = wire_chains(model, state) if wire else []
-    res = DepositResult(
-        name="gravity_deposit", time=rec.array("time"),
-        kinetic_energy=rec.array("kinetic_energy"),
-        **wire_before_after(chains0, chains1, smp.container.volume),
-        settlement=float(np.mean(z0 - state.position[sand, 2])), wall_force=-fz,
-        slack_share=float(np.mean(state.links.tension <= 0.0)) if model.n_links else math.nan,
-        weight=weight, at_rest=at_rest, history=hist.path,
-        params=dict(scale=None if given else scale, sample=smp.name, wire=wire, wire_density=smp.wire_density,
-                    wire_law=repr(law), neighbour_contact=bool(wire and neighbour_contact), steps=steps, ke_fraction=ke_fraction, dt=dt,
-                    theta=theta, tol=tol, max_iter=max_iter, relax=relax, anderson=anderson,
-                    threads=threads, hot_sweeps=hot_sweeps, mu=mu, mu_wall=mu_wall,
-                    mu_wire=mu_wire, seed=seed, n_sand=int(smp.sand_radii.size),
-                    n_beads=smp.n_beads, friction_angle_deg=math.degrees(math.atan(mu))))
-    return finish(res, stages, max_nonconverged)
+
+def _params(cfg, smp) -> dict:
+    """``result.params``."""
+    wire = cfg.wire
+    return dict(scale=None if cfg.given else cfg.scale, sample=smp.name, wire=wire,
+                wire_density=smp.wire_density, wire_law=repr(cfg.law),
+                neighbour_contact=bool(wire and cfg.neighbour_contact), steps=cfg.steps,
+                ke_fraction=cfg.ke_fraction, dt=cfg.dt, theta=cfg.theta, tol=cfg.tol,
+                max_iter=cfg.max_iter, relax=cfg.relax, anderson=cfg.anderson,
+                threads=cfg.threads, hot_sweeps=cfg.hot_sweeps, mu=cfg.mu, mu_wall=cfg.mu_wall,
+                mu_wire=cfg.mu_wire, seed=cfg.seed, n_sand=int(smp.sand_radii.size),
+                n_beads=smp.n_beads, friction_angle_deg=math.degrees(math.atan(cfg.mu)))

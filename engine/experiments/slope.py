@@ -5,6 +5,7 @@ from __future__ import annotations
 import math
 import warnings
 from dataclasses import dataclass
+from types import SimpleNamespace
 
 import numpy as np
 
@@ -15,10 +16,9 @@ from ..prep.relax import kinetic_energy
 from ..scene import Scene
 from .params import check_args
 from .start import start_of
-from .common import (RestCheckpoint, RestResult, check_bool,
-                     check_scale, deposit_laws, sample_identity, finish, rest_recording, rest_summary, run_meta,
-                     run_identity, run_to_rest, solver_choice, wire_before_after,
-                     wire_law_or_default)
+from .common import (RestCheckpoint, RestResult, check_bool, check_scale, deposit_laws,
+                     finish, rest_run, rest_summary, run_identity, run_meta, sample_identity,
+                     solver_choice, wire_before_after, wire_law_or_default)
 
 __all__ = ["slope_deposit", "SlopeResult", "hex_floor"]
 
@@ -127,110 +127,132 @@ def slope_deposit(scale: float = 0.02, *, sample=None, wire: bool = True,
     """
     check_args("slope_deposit", locals())
     identity = run_identity(dict(locals(), sample=sample_identity(sample), test="slope_deposit"))
-    scale = check_scale(scale)
-    anderson, hot_sweeps = solver_choice(anderson, hot_sweeps)
+    cfg = SimpleNamespace(**locals())
+    cfg.scale = check_scale(scale)
+    cfg.anderson, cfg.hot_sweeps = solver_choice(anderson, hot_sweeps)
     ckpt = RestCheckpoint(history, checkpoint_every, record_every, identity)
-    resume = check_bool("resume", resume)
-    fit_degree = check_fit_degree(fit_degree, wire, PROFILE_BINS)
-    law = wire_law_or_default(wire_law) if wire else None
-    if sample is not None and wire_density is not None:
+    cfg.resume = check_bool("resume", resume)
+    cfg.fit_degree = check_fit_degree(fit_degree, wire, PROFILE_BINS)
+    st, cfg.law = _slope_start(cfg)
+    heap = _heap(st, cfg)
+    model, sand = heap.model, heap.sand
+    chains0 = wire_chains(model, heap.state) if st.has_wire else []
+
+    def energy(model, state):
+        # grains that rolled off the floor's edge fall for good: not in the criterion
+        return kinetic_energy(model, state, sand[state.position[sand, 2] >= 0.0])
+
+    done = rest_run(model, heap.state, heap.ids, energy, cfg, desc="slope deposit",
+                    checkpoint=ckpt, meta=run_meta(
+                        "slope_deposit", steps, scale=cfg.scale, seed=seed, sample=st.source,
+                        wire=st.has_wire, wire_density=wire_density, wire_law=cfg.law,
+                        neighbour_contact=neighbour_contact, dt=dt, theta=theta, tol=tol,
+                        max_iter=max_iter, mu=mu, mu_floor=mu_floor, mu_wire=mu_wire,
+                        steps=steps, ke_fraction=ke_fraction))
+    res = _slope_result(heap, done, cfg, st, chains0)
+    return finish(res, done.stages, max_nonconverged)
+
+
+def _slope_start(cfg):
+    """(the :class:`~engine.experiments.start.Start` of the sample, the wire's law)."""
+    law = wire_law_or_default(cfg.wire_law) if cfg.wire else None
+    if cfg.sample is not None and cfg.wire_density is not None:
         raise ValueError("slope_deposit: wire_density builds the test's own sample; with "
                          "sample= given, build the sample with it (engine.prep.slope_sample)")
-    st = start_of("slope_deposit", Cylinder, sample,
-                  lambda: slope_sample(scale, wire=wire, wire_density=wire_density, seed=seed),
-                  wire=wire, wire_law=wire_law)
-    wire = st.has_wire
-    law = st.wire_law(law) if wire else None
+    st = start_of("slope_deposit", Cylinder, cfg.sample,
+                  lambda: slope_sample(cfg.scale, wire=cfg.wire, wire_density=cfg.wire_density,
+                                       seed=cfg.seed),
+                  wire=cfg.wire, wire_law=cfg.wire_law)
+    return st, st.wire_law(law) if st.has_wire else None
+
+
+def _heap(st, cfg) -> SimpleNamespace:
+    """The slope's scene: the sample, its axis on the floor's centre, lifted onto a floor
+    of fixed beads of ``rubber_radius`` on a hexagonal lattice spanning ``floor_extent`` ×
+    its radius R.  (model, state, sand, ids (sand and beads), rubber, R, lift)."""
     axis = st.axis()
     R = st.outer_radius(axis)
-    lift = 2 * rubber_radius
+    lift = 2 * cfg.rubber_radius
     sc = Scene(gravity=(0.0, 0.0, -G))
-    sand, beads = st.add_to(sc, wire_law=law, neighbour_contact=neighbour_contact,
+    sand, beads = st.add_to(sc, wire_law=cfg.law, neighbour_contact=cfg.neighbour_contact,
                             shift=(-axis[0], -axis[1], lift - st.floor))
     ids = np.concatenate([sand, *beads]) if beads else np.asarray(sand)
-    rubber = sc.add_spheres(hex_floor(rubber_radius, floor_extent * R), rubber_radius,
-                            density=1000.0, group="rubber")
+    rubber = sc.add_spheres(hex_floor(cfg.rubber_radius, cfg.floor_extent * R),
+                            cfg.rubber_radius, density=1000.0, group="rubber")
     sc.fix(rubber)
     sc.interact("rubber", "rubber", None)
-    deposit_laws(sc, "rubber", mu=mu, mu_support=mu_floor, mu_wire=mu_wire, wire=wire)
-    model, state = sc.compile(dt=dt, theta=theta, tol=tol, max_iter=max_iter, relax=relax,
-                              anderson=anderson, threads=threads, hot_sweeps=hot_sweeps)
-    model = st.carry_over(model, state)
-    chains0 = wire_chains(model, state) if wire else []
-    resumed = ckpt.load(model, history) if resume else None
-    if resumed is not None:
-        state = resumed.state
+    deposit_laws(sc, "rubber", mu=cfg.mu, mu_support=cfg.mu_floor, mu_wire=cfg.mu_wire,
+                 wire=st.has_wire)
+    model, state = sc.compile(dt=cfg.dt, theta=cfg.theta, tol=cfg.tol, max_iter=cfg.max_iter,
+                              relax=cfg.relax, anderson=cfg.anderson, threads=cfg.threads,
+                              hot_sweeps=cfg.hot_sweeps)
+    return SimpleNamespace(model=st.carry_over(model, state), state=state,
+                           sand=np.asarray(sand), ids=ids, rubber=rubber, R=R, lift=lift)
 
-    rec, hist, stages = rest_recording(model, state, ids, history=history,
-                                       record_every=record_every, frames=frames,
-                                       progress=progress, steps=steps, desc="slope deposit",
-                                       checkpoint=ckpt, resumed=resumed,
-                                       meta=run_meta(
-                                           "slope_deposit", steps, scale=scale, seed=seed,
-                                           sample=st.source, wire=wire, wire_density=wire_density, wire_law=law,
-                                           neighbour_contact=neighbour_contact, dt=dt,
-                                           theta=theta, tol=tol, max_iter=max_iter, mu=mu,
-                                           mu_floor=mu_floor, mu_wire=mu_wire, steps=steps,
-                                           ke_fraction=ke_fraction))
-    def energy():
-        # grains that rolled off the floor's edge fall for good: not in the criterion
-        on_floor = np.asarray(sand)[state.position[sand, 2] >= 0.0]
-        return kinetic_energy(model, state, on_floor)
 
+def _profile(heap, state, cfg, steps):
+    """(the heap's profile or None, why not or None, the per-sector heights): None when
+    the run stopped (``steps``, Ctrl-C) before the heap spread over the floor."""
     try:
-        at_rest = run_to_rest(stages, steps, record_every, ke_fraction, energy,
-                              checkpoint=ckpt, resumed=resumed)
-    finally:
-        stages.close()
-        hist.close()
-    if not stages.interrupted:
-        ckpt.remove()
-    ckpt.lock.release()
-    profile_error = None
-    try:
-        prof = slope_profile(model, state, floor=rubber, center=(0.0, 0.0),
-                             r_max=floor_extent * R, n_bins=PROFILE_BINS, n_sectors=8,
-                             degree=fit_degree)
-    except ValueError as e:  # stopped (steps, Ctrl-C) before the heap spread over the floor
-        prof = None
-        profile_error = (f"no slope profile after {stages.steps} steps ({e}): the heap has not "
-                         f"spread over the floor yet")
-        warnings.warn(f"slope_deposit: {profile_error}; the result has profile=None and "
-                      f"max_slope_deg=nan", RuntimeWarning, stacklevel=2)
-    sector_h = np.full((0, 8), np.nan)
-    if prof is not None:  # per-sector heights for the axisymmetry check
-        hp = np.setdiff1d(model.sphere_ids, rubber)
-        x = state.position[hp]
-        rr = np.hypot(x[:, 0], x[:, 1])
-        rb = np.clip(np.digitize(rr, prof.r_edges) - 1, 0, len(prof.r) - 1)
-        sec = ((np.arctan2(x[:, 1], x[:, 0]) + np.pi) / (2 * np.pi) * 8).astype(int) % 8
-        sector_h = np.full((len(prof.r), 8), np.nan)
-        np.fmax.at(sector_h, (rb, sec), x[:, 2] + model.body_radius[hp] - lift)
-    lost = int(np.count_nonzero(state.position[ids, 2] < 0.0))
+        prof = slope_profile(heap.model, state, floor=heap.rubber, center=(0.0, 0.0),
+                             r_max=cfg.floor_extent * heap.R, n_bins=PROFILE_BINS, n_sectors=8,
+                             degree=cfg.fit_degree)
+    except ValueError as e:
+        error = (f"no slope profile after {steps} steps ({e}): the heap has not spread over "
+                 f"the floor yet")
+        warnings.warn(f"slope_deposit: {error}; the result has profile=None and "
+                      f"max_slope_deg=nan", RuntimeWarning, stacklevel=4)
+        return None, error, np.full((0, 8), np.nan)
+    return prof, None, _sector_heights(heap, state, prof)
+
+
+def _sector_heights(heap, state, prof) -> np.ndarray:
+    """The heap's height per radial bin and angular sector (the axisymmetry check)."""
+    model = heap.model
+    hp = np.setdiff1d(model.sphere_ids, heap.rubber)
+    x = state.position[hp]
+    rr = np.hypot(x[:, 0], x[:, 1])
+    rb = np.clip(np.digitize(rr, prof.r_edges) - 1, 0, len(prof.r) - 1)
+    sec = ((np.arctan2(x[:, 1], x[:, 0]) + np.pi) / (2 * np.pi) * 8).astype(int) % 8
+    sector_h = np.full((len(prof.r), 8), np.nan)
+    np.fmax.at(sector_h, (rb, sec), x[:, 2] + model.body_radius[hp] - heap.lift)
+    return sector_h
+
+
+def _floor_force(heap, state) -> float:
+    """The vertical force of the heap on the rubber plane [N]."""
+    c = state.contacts
+    on_j, on_i = np.isin(c.j, heap.rubber), np.isin(c.i, heap.rubber)
+    return -float(-c.force[on_j & ~on_i, 2].sum() + c.force[on_i & ~on_j, 2].sum())
+
+
+def _slope_result(heap, done, cfg, st, chains0) -> SlopeResult:
+    model, state = heap.model, done.state
+    prof, profile_error, sector_h = _profile(heap, state, cfg, done.stages.steps)
+    lost = int(np.count_nonzero(state.position[heap.ids, 2] < 0.0))
     if lost:
         warnings.warn(f"slope_deposit: {lost} particles rolled off the floor's edge "
-                      f"(floor_extent = {floor_extent:g} sample radii) and fell; they are left "
-                      f"out of the rest criterion and the profile", RuntimeWarning, stacklevel=2)
-    c = state.contacts
-    on_j, on_i = np.isin(c.j, rubber), np.isin(c.i, rubber)
-    fz = float(-c.force[on_j & ~on_i, 2].sum() + c.force[on_i & ~on_j, 2].sum())
-    weight = float(model.body_mass[ids].sum() * G)
+                      f"(floor_extent = {cfg.floor_extent:g} sample radii) and fell; they are "
+                      f"left out of the rest criterion and the profile", RuntimeWarning,
+                      stacklevel=3)
+    wire = st.has_wire
     chains1 = wire_chains(model, state) if wire else []
-    res = SlopeResult(
+    return SlopeResult(
         name="slope_deposit", profile=prof,
         max_slope_deg=prof.max_slope_deg if prof is not None else float("nan"),
-        sector_heights=sector_h, floor_force=-fz, weight=weight,
-        time=rec.array("time"), kinetic_energy=rec.array("kinetic_energy"),
-        **wire_before_after(chains0, chains1, st.volume()), at_rest=at_rest,
-        history=hist.path,
-        params=dict(scale=scale, sample=st.source, wire=wire, wire_density=st.wire_density,
-                    wire_law=repr(law), neighbour_contact=bool(wire and neighbour_contact), steps=steps, ke_fraction=ke_fraction,
-                    rubber_radius=rubber_radius, n_rubber=int(len(rubber)),
-                    floor_extent=floor_extent, dt=dt, theta=theta, tol=tol,
-                    max_iter=max_iter, relax=relax, anderson=anderson, threads=threads,
-                    hot_sweeps=hot_sweeps, mu=mu, mu_floor=mu_floor,
-                    mu_wire=mu_wire, seed=seed,
+        sector_heights=sector_h, floor_force=_floor_force(heap, state),
+        weight=float(model.body_mass[heap.ids].sum() * G),
+        time=done.rec.array("time"), kinetic_energy=done.rec.array("kinetic_energy"),
+        **wire_before_after(chains0, chains1, st.volume()), at_rest=done.at_rest,
+        history=done.hist.path,
+        params=dict(scale=cfg.scale, sample=st.source, wire=wire, wire_density=st.wire_density,
+                    wire_law=repr(cfg.law), neighbour_contact=bool(wire and cfg.neighbour_contact),
+                    steps=cfg.steps, ke_fraction=cfg.ke_fraction,
+                    rubber_radius=cfg.rubber_radius, n_rubber=int(len(heap.rubber)),
+                    floor_extent=cfg.floor_extent, dt=cfg.dt, theta=cfg.theta, tol=cfg.tol,
+                    max_iter=cfg.max_iter, relax=cfg.relax, anderson=cfg.anderson,
+                    threads=cfg.threads, hot_sweeps=cfg.hot_sweeps, mu=cfg.mu,
+                    mu_floor=cfg.mu_floor, mu_wire=cfg.mu_wire, seed=cfg.seed,
                     n_sand=int(st.sand_radii.size), n_beads=st.n_beads,
-                    friction_angle_deg=math.degrees(math.atan(mu)),
+                    friction_angle_deg=math.degrees(math.atan(cfg.mu)),
                     profile_error=profile_error, lost_particles=lost))
-    return finish(res, stages, max_nonconverged)

@@ -23,6 +23,14 @@ changed most after each sweep (:attr:`engine.model.Options.hot_sweeps`, docs/spe
 the NLGS thread count (:attr:`engine.model.Options.threads`); 2 pays only on samples of tens
 of thousands of contacts (docs/speed.md).
 
+The walls' pressure is data: one :class:`~engine.schedules.Ramp` in the drives of the top
+plate (and of the box's side walls), raised by :class:`~engine.schedules.FollowSchedules`;
+their areas are :class:`~engine.schedules.Servo` values that :class:`engine.drivers.BoxFaces`
+(the box's faces, each step) or :class:`engine.drivers.MembraneUpdater` (π R² of the
+cylinder's membrane) set; the current values are in the State.  Each stage is one
+:meth:`~engine.experiments.common.Stages.run` (:func:`engine.step.run`) with its updaters
+and its stop condition (:class:`_Isotropic`; docs/experiments.md has the table).
+
 Between the stages the top wall's drive is switched (:meth:`engine.model.Model.with_drive`).
 A velocity-driven (kinematic) top wall in stage 1 was tried first: on a jammed packing of
 rigid grains it made the NLGS fail to converge in 529 of 600 steps and overshot the target
@@ -33,13 +41,17 @@ from __future__ import annotations
 import math
 import os
 import warnings
+from dataclasses import dataclass, field
+from types import SimpleNamespace
 
 import numpy as np
 
 from .. import laws
 from ..analysis import (best_fit_strain, equivalent_stress, macro_stiffness, principal,
                         toroidal_map, wall_forces, weber_stress)
-from ..drivers import Confinement
+from ..drivers import BoxFaces, Confinement, MembraneUpdater
+from ..schedules import FollowSchedules, Ramp, Servo
+from ..trigger import Updater
 from ..prep import Box, Cylinder, box_sample, cylinder_sample
 from ..scene import Scene
 from .params import check_args
@@ -51,17 +63,6 @@ from .common import (ConfinementError, Recorder, Stages, TestResult, check_scale
 __all__ = ["cylinder_triaxial", "box_triaxial"]
 
 G = 9.81
-
-
-class _Pressure:
-    """The stage-1 pressure [Pa], a callable of time for the drives; ``value`` is set by the
-    test as it ramps."""
-
-    def __init__(self):
-        self.value = 0.0
-
-    def __call__(self, t):
-        return self.value
 
 
 def _laws_for(scene, mu, mu_wall, mu_wire, wire):
@@ -119,22 +120,22 @@ CYLINDER_COMPACTION_MU_MIN = 0.1
 
 
 def cylinder_triaxial(scale: float = 0.05, *, sample=None, preparation: str = "geometric",
-                      pressure: float = 15e3, wire: bool = True,
-                      wire_law=None, neighbour_contact: bool = False,
-                      wire_density: float | None = None, wire_mode: str = "isotropic",
-                      bead_radius: float | None = None,
+                      pressure: float = 15e3, wire: bool = True, wire_law=None,
+                      neighbour_contact: bool = False, wire_density: float | None = None,
+                      wire_mode: str = "isotropic", bead_radius: float | None = None,
                       wire_prestrain: float = 0.0, confinement: str = "free_surface",
-                      deposit_steps: int = 6000, axial_strain: float = 0.1, strain_rate: float | None = None,
-                      target_I: float = 5e-4, allow_dynamic: bool = False, dt: float = 5e-5,
-                      theta: float = 0.5, tol: float = 3e-4, max_iter: int = 1000,
-                      relax: float = 1.0, anderson: int = 0, threads: int = 1, hot_sweeps: int | None = None, mu: float = 0.5,
-                      mu_wall: float = 0.5,
-                      mu_wire: float = 0.3, compaction_mu: float | None = None,
-                      iso_tol: float = 0.02, iso_hold: int = 5, iso_max_steps: int = 4000,
-                      confine_every: int = 10, record_every: int = 10, frames: int = 100,
+                      deposit_steps: int = 6000, axial_strain: float = 0.1,
+                      strain_rate: float | None = None, target_I: float = 5e-4,
+                      allow_dynamic: bool = False, dt: float = 5e-5, theta: float = 0.5,
+                      tol: float = 3e-4, max_iter: int = 1000, relax: float = 1.0,
+                      anderson: int = 0, threads: int = 1, hot_sweeps: int | None = None,
+                      mu: float = 0.5, mu_wall: float = 0.5, mu_wire: float = 0.3,
+                      compaction_mu: float | None = None, iso_tol: float = 0.02,
+                      iso_hold: int = 5, iso_max_steps: int = 4000, confine_every: int = 10,
+                      record_every: int = 10, frames: int = 100,
                       torus_strains=(0.02, 0.05, 0.1), max_nonconverged: float = 0.25,
-                      ramp_steps: int = 400, history: str = "out/cylinder_triaxial.h5", seed: int = 0,
-                      progress: bool = True) -> TestResult:
+                      ramp_steps: int = 400, history: str = "out/cylinder_triaxial.h5",
+                      seed: int = 0, progress: bool = True) -> TestResult:
     """The cylinder triaxial test of §3.3 (Fig. 13-16, Table 2).
 
     The sample is :func:`engine.prep.cylinder_sample` (Ø9 mm × 20 mm, 6 200 grains + a wire
@@ -181,171 +182,23 @@ def cylinder_triaxial(scale: float = 0.05, *, sample=None, preparation: str = "g
     Raises ValueError for bad input (naming it), ConvergenceError when more than
     ``max_nonconverged`` of the steps hit ``max_iter``.
     """
-    args = dict(locals())
-    check_args("cylinder_triaxial", args)
-    scale = check_scale(scale)
-    anderson, hot_sweeps = solver_choice(anderson, hot_sweeps)
-    p = float(pressure)
-    eps_max = float(axial_strain)
-    compaction_mu = _compaction_mu(compaction_mu, CYLINDER_COMPACTION_MU_MIN,
-                                   " (at 0 the free-surface confinement let the "
-                                   "frictionless grains out)")
-    st, deposit, law = _prepared("cylinder_triaxial", Cylinder, cylinder_sample, dict(
-        args, scale=scale, anderson=anderson, hot_sweeps=hot_sweeps))
-    wire = st.has_wire
-    axis = st.axis()
-    across = 2 * st.outer_radius(axis) / (2 * float(st.sand_radii.mean()))
-    if across < 5.5:
-        raise ValueError(
-            f"scale {scale} gives a sample {across:.1f} mean grain diameters across; the "
-            f"free-surface confinement needs at least 5.5 (scale >= 0.04): on thinner samples "
-            f"it threw grains out at tens of m/s (measured at scale 0.03)")
-    sc = Scene(gravity=(0.0, 0.0, -G))
-    sand, beads = st.add_to(sc, wire_law=law, neighbour_contact=neighbour_contact)
-    floor = sc.add_plane(point=(axis[0], axis[1], st.floor), normal=(0, 0, 1), group="wall")
-    top_z = st.floor + st.height
-    d_mean = 2 * float(st.sand_radii.mean())
-    rate, I = choose_rate(strain_rate, p, d_mean, 2650.0, target_I=target_I,
-                          allow_dynamic=allow_dynamic)
-    p_now = _Pressure()
-    # the membrane loads go on sand grains only: a cell's share on a light wire bead
-    # accelerates it by ~1e6 m/s² and blew the run up
-    conf = _membrane(confinement, np.asarray(sand), axis)
-    m_sample = st.sand_mass
-    top = sc.add_plane(point=(axis[0], axis[1], top_z), normal=(0, 0, -1), group="wall")
-    sc.drive(top, pressure=p_now, mass=0.2 * m_sample,
-             area=lambda model, state: math.pi * conf.radius ** 2)
-    sc.fix(floor)
-    _laws_for(sc, mu, mu_wall, mu_wire, wire)
-    model, state = sc.compile(dt=dt, theta=theta, tol=tol, max_iter=max_iter, relax=relax,
-                              anderson=anderson, threads=threads, hot_sweeps=hot_sweeps)
-    model = st.carry_over(model, state)
-    conf.apply(model, state)
-
-    def confine():
-        """Update the membrane loads; stop if the sample has come apart."""
-        try:
-            conf.apply(model, state)
-        except ConfinementError as e:
-            raise ConfinementError(
-                f"cylinder_triaxial: the sample came apart: {e}. Seen on samples of scale "
-                f"0.04 (here scale {scale:g}, seed {seed}); use a larger scale. The history "
-                f"{history} keeps the steps run so far.") from e
-
-    model_iso = _compaction(model, compaction_mu)
-    stage = {"value": 0}
-    stage_of = []
-
-    def stresses(model, state):
-        V = math.pi * conf.radius ** 2 * (state.position[top, 2] - state.position[floor, 2])
-        mem = conf.membrane_stress(model) / V
-        # Eq. (18) over the whole sample with volume V (the membrane is its lateral boundary)
-        sand_s = _weber(model, state, "sand", V) - mem
-        wire_s = _weber(model, state, "wire", V) if model.n_links else np.zeros((3, 3))
-        return sand_s + wire_s, sand_s, wire_s, V
-
-    def sample_values(model, state):
-        tot, sand_s, wire_s, V = stresses(model, state)
-        H = state.position[top, 2] - state.position[floor, 2]
-        stage_of.append(stage["value"])
-        return dict(stress=tot, sand_stress=sand_s, wire_stress=wire_s, height=H, volume=V,
-                    radius=conf.radius, stage=stage["value"], time=state.time, step=state.step)
-
-    rec = _SplitRecorder(sample_values, record_every)
-    units = dict(stress="Pa", sand_stress="Pa", wire_stress="Pa", height="m", volume="m^3",
-                 radius="m", stage="-", time="s", step="-")
-    H0 = top_z
-    est_steps = iso_max_steps + int(eps_max / (rate * dt)) + 1
-    hist = history_writer(history, rec, units, record_every, frames, meta=run_meta(
-        "cylinder_triaxial", est_steps, scale=scale, seed=seed, sample=st.source,
-        preparation=preparation, confinement=confinement, pressure=p, wire=wire,
-        wire_law=law, neighbour_contact=neighbour_contact, axial_strain=eps_max,
-        strain_rate=rate, dt=dt, theta=theta, tol=tol, max_iter=max_iter, mu=mu,
-        mu_wall=mu_wall, mu_wire=mu_wire))
-    stages = Stages(model_iso, state, [rec, hist], progress=progress, total=est_steps,
-                    desc="cylinder triaxial")
-    maps = {}
-    R0 = conf.radius
-    preload = None
-    strains = {}
+    cfg = _config("cylinder_triaxial", dict(locals()), CYLINDER_COMPACTION_MU_MIN,
+                  " (at 0 the free-surface confinement let the frictionless grains out)")
+    st, deposit, cfg.law = _prepared("cylinder_triaxial", Cylinder, cylinder_sample, vars(cfg))
+    rig = _cylinder_rig(st, cfg)
+    _loading_rate(cfg, rig)
+    rec, hist, stages = _recording(rig, cfg, "cylinder_triaxial", CYLINDER_UNITS,
+                                   _cylinder_values(rig), confine_every)
     try:
-        # stage 1: isotropic
-        def set_pressure(v):
-            p_now.value = conf.pressure = v
-
-        def measure():
-            # the spheres push the top wall up: compression positive
-            sigma_top = wall_forces(model, state, [top])[0, 2] / (math.pi * conf.radius ** 2)
-            confine()
-            return (-np.trace(stresses(model, state)[0]) / 3, sigma_top)
-
-        stages.set_stage("isotropic")
-        iso_reached = _isotropic(stages, confine_every, iso_max_steps, ramp_steps, p,
-                                 set_pressure, measure, iso_tol, iso_hold)
-        # stage 2: triaxial
-        stage["value"] = 1
-        stages.set_stage("loading")
-        H0 = state.position[top, 2] - state.position[floor, 2]
-        R0 = conf.radius
-        ref = state.position.copy()
-        preload = _loading_start(model, state, st, math.pi * R0 ** 2 * H0)
-        if wire and wire_prestrain:
-            model = _prestrained(model, state, wire_prestrain)
-        model = stages.model = model.with_drive(top, velocity=(0.0, 0.0, -rate * H0))
-        n_load = int(math.ceil(eps_max / (rate * dt)))
-        targets = sorted(float(e) for e in torus_strains if e <= eps_max + 1e-12)
-        done = 0
-        while done < n_load and not stages.interrupted:
-            n = min(confine_every, n_load - done)
-            if not stages.run(n):
-                break
-            done += n
-            confine()
-            H = state.position[top, 2] - state.position[floor, 2]
-            eps = 1 - H / H0
-            last = done >= n_load
-            # the last chunk ends within one step of the final strain (the first step lags
-            # by θ h ε̇): a target equal to it is taken there
-            while targets and wire and (eps >= targets[0] or (last and targets[0] >= eps_max - 1e-12)):
-                e = targets.pop(0)
-                maps[e] = toroidal_map(model, state, Cylinder(conf.radius, H, (
-                    axis[0], axis[1], state.position[floor, 2])), part="wire")
-        stages.record_last()
-        strains = _best_fit(ref, state, sand, np.concatenate(beads) if beads else
-                            np.zeros(0, np.int64))
+        cfg.iso_reached = _cylinder_isotropic(stages, rig, cfg)
+        _loading(stages, rig, cfg)
+        if not stages.interrupted:
+            stages.run(rig.n_load, updaters=_cylinder_loading_updaters(rig, cfg))
+        _ended(stages, rig)
     finally:
         stages.close()
         hist.close()
-    tri, iso = _split(rec, stage_of)
-    res = _result("cylinder_triaxial", tri, H0, history)
-    res.params = dict(scale=scale, sample=st.source, preparation=preparation,
-                      confinement=confinement, wire_density=st.wire_density,
-                      wire_mode=wire_mode if sample is None else None,
-                      bead_radius=st.bead_radius if wire else None,
-                      wire_prestrain=wire_prestrain if wire else 0.0,
-                      deposit_steps=deposit_steps if deposit is not None else None,
-                      pressure=p, wire=wire, wire_law=repr(law), neighbour_contact=bool(wire and neighbour_contact), axial_strain=eps_max,
-                      strain_rate=rate, inertial_number=I, loading_velocity=rate * H0, dt=dt,
-                      theta=theta, tol=tol, max_iter=max_iter, anderson=anderson, threads=threads,
-                      hot_sweeps=hot_sweeps, mu=mu,
-                      mu_wall=mu_wall,
-                      mu_wire=mu_wire, compaction_mu=compaction_mu, seed=seed,
-                      n_sand=int(st.sand_radii.size),
-                      n_beads=st.n_beads, d_mean=d_mean, iso_reached=iso_reached)
-    res.extra["start"] = _start_extra(st, deposit, preload)
-    if len(res.time):
-        res.extra["radial_strain"] = tri["radius"] / R0 - 1          # extension positive
-    res.extra["isotropic"] = dict(time=iso.get("time"), mean_stress=_mean(iso.get("stress")),
-                                  axial_stress=_axial(iso.get("stress")), reached=iso_reached)
-    res.extra["torus_maps"] = maps
-    res.extra["best_fit_strain"] = strains
-    res.extra["height"], res.extra["radius"] = tri.get("height"), tri.get("radius")
-    if wire and len(res.time) >= 5:
-        try:
-            res.extra["H"] = macro_stiffness(res.axial_strain, res.wire_equivalent)
-        except ValueError as e:
-            res.extra["H"] = None
-            res.extra["H_error"] = str(e)
+    res = _cylinder_result(rig, cfg, rec, deposit)
     return finish(res, stages, max_nonconverged)
 
 
@@ -472,37 +325,6 @@ def _membrane(kind, sand, axis):
     raise ValueError(f"confinement = {kind!r}: must be one of {', '.join(map(repr, CONFINEMENTS))}")
 
 
-def _isotropic(stages, every, max_steps, ramp_steps, p, set_pressure, measure, iso_tol,
-               iso_hold) -> bool:
-    """Stage 1: raise the pressure linearly over ``ramp_steps`` (a sudden p on a loose
-    sample throws its outer grains in at metres per second), then run until every stress
-    ``measure()`` returns is within ``iso_tol`` of p for ``iso_hold`` consecutive checks
-    ``every`` steps apart.  Returns whether it got there within ``max_steps``; if not, a
-    RuntimeWarning says so with the stresses reached (the loading then starts from there,
-    and the result's ``params["iso_reached"]`` is False)."""
-    ok_count, n = 0, 0
-    values = ()
-    while n < max_steps:
-        if not stages.run(every):
-            break
-        n += every
-        p_now = p * min(1.0, n / max(ramp_steps, 1))
-        set_pressure(p_now)
-        values = measure()
-        ok = p_now == p and all(abs(v / p - 1) < iso_tol for v in values)
-        ok_count = ok_count + 1 if ok else 0
-        if ok_count >= iso_hold:
-            break
-    reached = ok_count >= iso_hold
-    if not reached and not stages.interrupted:
-        got = ", ".join(f"{v:.4g}" for v in values)
-        warnings.warn(f"the isotropic stage did not reach {p:.4g} Pa (within {iso_tol:.0%} "
-                      f"for {iso_hold} checks) in {n} steps (iso_max_steps = {max_steps}): the "
-                      f"stresses were {got} Pa; the loading starts from there. Raise "
-                      f"iso_max_steps", RuntimeWarning, stacklevel=3)
-    return reached
-
-
 def _weber(model, state, part, V):
     """Weber sum (Eq. 18) of the whole sample with volume V (tension positive)."""
     s = weber_stress(model, state, part=part)
@@ -519,20 +341,6 @@ def _axial(stress):
     if stress is None or len(stress) == 0:
         return np.zeros(0)
     return -np.asarray(stress)[:, 2, 2]
-
-
-class _SplitRecorder(Recorder):
-    """A recorder of one function returning a dict of values."""
-
-    def __init__(self, fn, every):
-        super().__init__({}, every)
-        self.fn = fn
-        self.rows = {}
-        self.fns = {k: None for k in ("stress", "sand_stress", "wire_stress", "height",
-                                      "volume", "radius", "stage", "time", "step")}
-
-    def values(self, model, state) -> dict:
-        return self.fn(model, state)
 
 
 def _split(rec, stage_of):
@@ -569,19 +377,18 @@ def _result(name, tri, H0, history):
 
 
 def box_triaxial(scale: float = 0.05, *, sample=None, preparation: str = "geometric",
-                 pressure: float = 15e3, wire: bool = True,
-                 wire_law=None, neighbour_contact: bool = False, bead_radius: float | None = None,
+                 pressure: float = 15e3, wire: bool = True, wire_law=None,
+                 neighbour_contact: bool = False, bead_radius: float | None = None,
                  wire_density: float | None = None, wire_mode: str = "isotropic",
                  wire_prestrain: float = 0.0, deposit_steps: int = 6000,
-                 axial_strain: float = 0.05,
-                 strain_rate: float | None = None, target_I: float = 5e-4,
-                 allow_dynamic: bool = False, dt: float = 5e-5, theta: float = 0.5,
-                 tol: float = 3e-4, max_iter: int = 1000, relax: float = 1.0,
-                 anderson: int = 0, threads: int = 1, hot_sweeps: int | None = None, mu: float = 0.5, mu_wall: float = 0.0,
+                 axial_strain: float = 0.05, strain_rate: float | None = None,
+                 target_I: float = 5e-4, allow_dynamic: bool = False, dt: float = 5e-5,
+                 theta: float = 0.5, tol: float = 3e-4, max_iter: int = 1000,
+                 relax: float = 1.0, anderson: int = 0, threads: int = 1,
+                 hot_sweeps: int | None = None, mu: float = 0.5, mu_wall: float = 0.0,
                  mu_wire: float = 0.3, compaction_mu: float | None = None,
-                 wall_mass: float | None = None, iso_tol: float = 0.02,
-                 iso_hold: int = 5, iso_max_steps: int = 4000, check_every: int = 10,
-                 ramp_steps: int = 400,
+                 wall_mass: float | None = None, iso_tol: float = 0.02, iso_hold: int = 5,
+                 iso_max_steps: int = 4000, check_every: int = 10, ramp_steps: int = 400,
                  record_every: int = 10, frames: int = 100, max_nonconverged: float = 0.25,
                  history: str = "out/box_triaxial.h5", seed: int = 0,
                  progress: bool = True) -> TestResult:
@@ -605,160 +412,502 @@ def box_triaxial(scale: float = 0.05, *, sample=None, preparation: str = "geomet
     directions (Fig. 11), and the best-fit strains (Eq. 19) of the sand, the wire and all
     the particles (Fig. 12).
     """
-    args = dict(locals())
-    check_args("box_triaxial", args)
-    scale = check_scale(scale)
-    anderson, hot_sweeps = solver_choice(anderson, hot_sweeps)
-    p = float(pressure)
-    eps_max = float(axial_strain)
-    compaction_mu = _compaction_mu(compaction_mu)
-    st, deposit, law = _prepared("box_triaxial", Box, box_sample, dict(
-        args, scale=scale, anderson=anderson, hot_sweeps=hot_sweeps))
-    wire = st.has_wire
-    box = st.box()
-    lo, hi = np.array(box.lo), np.array(box.hi)
-    sc = Scene(gravity=(0.0, 0.0, -G))
-    sand, beads = st.add_to(sc, wire_law=law, neighbour_contact=neighbour_contact)
-    bead_ids = np.concatenate(beads) if beads else np.zeros(0, np.int64)
-    top_z = st.height
-    d_mean = 2 * float(st.sand_radii.mean())
-    rate, I = choose_rate(strain_rate, p, d_mean, 2650.0, target_I=target_I,
-                          allow_dynamic=allow_dynamic)
-    m_sample = st.sand_mass
-    wall_mass = 0.2 * m_sample if wall_mass is None else float(wall_mass)   # (checked: BoxParams)
-    floor = sc.add_plane(point=(0, 0, lo[2]), normal=(0, 0, 1), group="wall")
-    p_now = _Pressure()
-    top = sc.add_plane(point=(0, 0, lo[2] + top_z), normal=(0, 0, -1), group="wall")
-    sides = [sc.add_plane(point=pt, normal=n, group="wall") for pt, n in (
-        ((lo[0], 0, 0), (1, 0, 0)), ((hi[0], 0, 0), (-1, 0, 0)),
-        ((0, lo[1], 0), (0, 1, 0)), ((0, hi[1], 0), (0, -1, 0)))]
-
-    def side_area(k):
-        def area(model, state):
-            H = state.position[top, 2] - state.position[floor, 2]
-            other = (sides[2], sides[3]) if k < 2 else (sides[0], sides[1])
-            ax = 1 if k < 2 else 0
-            w = state.position[other[1], ax] - state.position[other[0], ax]
-            return H * w
-        return area
-
-    for k, b in enumerate(sides):
-        sc.drive(b, pressure=p_now, mass=wall_mass, area=side_area(k))
-
-    def top_area(model, state):
-        return ((state.position[sides[1], 0] - state.position[sides[0], 0])
-                * (state.position[sides[3], 1] - state.position[sides[2], 1]))
-
-    sc.drive(top, pressure=p_now, mass=wall_mass, area=top_area)
-    sc.fix(floor)
-    _laws_for(sc, mu, mu_wall, mu_wire, wire)
-    model, state = sc.compile(dt=dt, theta=theta, tol=tol, max_iter=max_iter, relax=relax,
-                              anderson=anderson, threads=threads, hot_sweeps=hot_sweeps)
-    model = st.carry_over(model, state)
-    stage = {"value": 0}
-    stage_of = []
-    walls = np.array([*sides, top])
-
-    def dims(state):
-        x = state.position
-        return (x[sides[1], 0] - x[sides[0], 0], x[sides[3], 1] - x[sides[2], 1],
-                x[top, 2] - x[floor, 2])
-
-    def wall_sigma(model, state):
-        Lx, Ly, H = dims(state)
-        f = wall_forces(model, state, walls)
-        areas = np.array([Ly * H, Ly * H, Lx * H, Lx * H, Lx * Ly])
-        normals = np.array([model.body_axis[b] for b in walls])
-        # the spheres push each wall against its normal: compression positive
-        return -np.einsum("ka,ka->k", f, normals) / areas
-
-    def sample_values(model, state):
-        Lx, Ly, H = dims(state)
-        V = Lx * Ly * H
-        sand_s = _weber(model, state, "sand", V)
-        wire_s = _weber(model, state, "wire", V) if model.n_links else np.zeros((3, 3))
-        zmid = state.position[floor, 2] + 0.5 * H
-        x0, y0 = state.position[sides[0], 0], state.position[sides[2], 1]
-        halves = []
-        for zl, zh in ((zmid, zmid + 0.5 * H), (zmid - 0.5 * H, zmid)):
-            reg = Box((x0, y0, zl), (x0 + Lx, y0 + Ly, zh))
-            try:
-                halves.append(weber_stress(model, state, region=reg, part="wire").tensor
-                              if model.n_links else np.zeros((3, 3)))
-            except ValueError:
-                halves.append(np.full((3, 3), np.nan))
-        stage_of.append(stage["value"])
-        return dict(stress=sand_s + wire_s, sand_stress=sand_s, wire_stress=wire_s,
-                    wire_stress_upper=halves[0], wire_stress_lower=halves[1],
-                    wall_stress=wall_sigma(model, state), height=H, volume=V,
-                    radius=0.0, stage=stage["value"], time=state.time, step=state.step,
-                    position=None)
-
-    rec = _SplitRecorder(lambda m, s: {k: v for k, v in sample_values(m, s).items()
-                                       if k != "position"}, record_every)
-    rec.fns = {k: None for k in ("stress", "sand_stress", "wire_stress", "wire_stress_upper",
-                                 "wire_stress_lower", "wall_stress", "height", "volume",
-                                 "radius", "stage", "time", "step")}
-    units = dict(stress="Pa", sand_stress="Pa", wire_stress="Pa", wire_stress_upper="Pa",
-                 wire_stress_lower="Pa", wall_stress="Pa", height="m", volume="m^3",
-                 radius="m", stage="-", time="s", step="-")
-    est_steps = iso_max_steps + int(eps_max / (rate * dt)) + 1
-    hist = history_writer(history, rec, units, record_every, frames, meta=run_meta(
-        "box_triaxial", est_steps, scale=scale, seed=seed, sample=st.source,
-        preparation=preparation, pressure=p, wire=wire,
-        wire_law=law, neighbour_contact=neighbour_contact, axial_strain=eps_max,
-        strain_rate=rate, dt=dt, theta=theta, tol=tol, max_iter=max_iter, mu=mu,
-        mu_wall=mu_wall, mu_wire=mu_wire))
-    stages = Stages(_compaction(model, compaction_mu), state, [rec, hist], progress=progress,
-                    total=est_steps, desc="box triaxial")
-    strains = {}
-    H0 = top_z
-    preload = None
+    cfg = _config("box_triaxial", dict(locals()))
+    st, deposit, cfg.law = _prepared("box_triaxial", Box, box_sample, vars(cfg))
+    rig = _box_rig(st, cfg)
+    _loading_rate(cfg, rig)
+    rec, hist, stages = _recording(rig, cfg, "box_triaxial", BOX_UNITS, _box_values(rig),
+                                   check_every)
     try:
-        def measure():
-            Lx, Ly, H = dims(state)
-            return (-np.trace(_weber(model, state, "all", Lx * Ly * H)) / 3,
-                    *wall_sigma(model, state))
-
-        stages.set_stage("isotropic")
-        iso_reached = _isotropic(stages, check_every, iso_max_steps, ramp_steps, p,
-                                 lambda v: setattr(p_now, "value", v), measure, iso_tol,
-                                 iso_hold)
-        stage["value"] = 1
-        stages.set_stage("loading")
-        H0 = dims(state)[2]
-        ref = state.position.copy()
-        preload = _loading_start(model, state, st, float(np.prod(dims(state))))
-        if wire and wire_prestrain:
-            model = _prestrained(model, state, wire_prestrain)
-        model = stages.model = model.with_drive(top, velocity=(0.0, 0.0, -rate * H0))
-        n_load = int(math.ceil(eps_max / (rate * dt)))
+        cfg.iso_reached = _isotropic(stages, rig, cfg, check_every, _box_measure(rig),
+                                     [rig.faces])
+        _loading(stages, rig, cfg)
         if not stages.interrupted:
-            stages.run(n_load)
-        stages.record_last()
-        strains = _best_fit(ref, state, sand, bead_ids)
+            stages.run(rig.n_load, updaters=[rig.faces])
+        _ended(stages, rig)
     finally:
         stages.close()
         hist.close()
-    tri, iso = _split(rec, stage_of)
-    res = _result("box_triaxial", tri, H0, history)
-    res.params = dict(scale=scale, sample=st.source, preparation=preparation,
-                      wire_density=st.wire_density,
-                      wire_mode=wire_mode if sample is None else None,
-                      wire_prestrain=wire_prestrain if wire else 0.0,
-                      deposit_steps=deposit_steps if deposit is not None else None,
-                      pressure=p, wire=wire, wire_law=repr(law), neighbour_contact=bool(wire and neighbour_contact),
-                      bead_radius=st.bead_radius if wire else None, axial_strain=eps_max, strain_rate=rate,
-                      inertial_number=I, loading_velocity=rate * H0, dt=dt, theta=theta,
-                      tol=tol, max_iter=max_iter, anderson=anderson, threads=threads,
-                      hot_sweeps=hot_sweeps, mu=mu, mu_wall=mu_wall,
-                      mu_wire=mu_wire, compaction_mu=compaction_mu,
-                      wall_mass=wall_mass, seed=seed, n_sand=int(st.sand_radii.size),
-                      n_beads=st.n_beads, d_mean=d_mean, iso_reached=iso_reached)
-    res.extra["start"] = _start_extra(st, deposit, preload)
+    res = _box_result(rig, cfg, rec, deposit)
+    return finish(res, stages, max_nonconverged)
+
+
+# -- the stages of both tests -----------------------------------------------------------------
+def _config(test, args, least_mu=0.0, why="") -> SimpleNamespace:
+    """A test's arguments (its ``locals()`` on entry) checked, with the scale and the solver
+    choice resolved, ``p`` and ``eps_max`` as floats, ``compaction_mu`` checked to be at
+    least ``least_mu`` (``why``: the reason, for the message)."""
+    check_args(test, args)
+    cfg = SimpleNamespace(**args)
+    cfg.scale = check_scale(cfg.scale)
+    cfg.anderson, cfg.hot_sweeps = solver_choice(cfg.anderson, cfg.hot_sweeps)
+    cfg.p, cfg.eps_max = float(cfg.pressure), float(cfg.axial_strain)
+    cfg.compaction_mu = _compaction_mu(cfg.compaction_mu, least_mu, why)
+    return cfg
+
+
+def _loading_rate(cfg, rig) -> None:
+    """``cfg.rate`` [1/s] and ``cfg.I`` of the loading, and ``cfg.est_steps``, the test's
+    upper bound on its steps."""
+    cfg.rate, cfg.I = choose_rate(cfg.strain_rate, cfg.p, rig.d_mean, 2650.0,
+                                  target_I=cfg.target_I, allow_dynamic=cfg.allow_dynamic)
+    cfg.est_steps = cfg.iso_max_steps + int(cfg.eps_max / (cfg.rate * cfg.dt)) + 1
+
+
+@dataclass(eq=False)
+class _Rig:
+    """A triaxial test's compiled scene and what its stages measure on it: the model and
+    state, the sample's sand and bead ids, the floor and top plates, the box's side walls or
+    the cylinder's membrane updater; ``stage`` (0 isotropic, 1 loading) is what the records
+    are marked with, ``stage_of`` those marks."""
+
+    model: object
+    state: object
+    st: object
+    sand: np.ndarray
+    bead_ids: np.ndarray
+    floor: int
+    top: int
+    sides: tuple = ()
+    faces: object = None            # BoxFaces (box)
+    membrane: object = None         # MembraneUpdater (cylinder)
+    axis: tuple = (0.0, 0.0)
+    stage: int = 0
+    stage_of: list = field(default_factory=list)
+    H0: float = 0.0
+    R0: float = 0.0
+    ref: np.ndarray = None
+    preload: dict = None
+    n_load: int = 0
+    strains: dict = field(default_factory=dict)
+    maps: dict = field(default_factory=dict)
+
+    @property
+    def d_mean(self) -> float:
+        return 2 * float(self.st.sand_radii.mean())
+
+    def height(self, state) -> float:
+        return state.position[self.top, 2] - state.position[self.floor, 2]
+
+
+def _scene(st, cfg):
+    """The test's Scene with the sample's particles: (scene, sand ids, bead ids)."""
+    sc = Scene(gravity=(0.0, 0.0, -G))
+    sand, beads = st.add_to(sc, wire_law=cfg.law, neighbour_contact=cfg.neighbour_contact)
+    return sc, sand, np.concatenate(beads) if beads else np.zeros(0, np.int64)
+
+
+def _compiled(sc, st, cfg):
+    """The fixed floor's and the contact laws' last touches, then (model, state) with an end
+    state's velocities and links carried over."""
+    _laws_for(sc, cfg.mu, cfg.mu_wall, cfg.mu_wire, st.has_wire)
+    model, state = sc.compile(dt=cfg.dt, theta=cfg.theta, tol=cfg.tol, max_iter=cfg.max_iter,
+                              relax=cfg.relax, anderson=cfg.anderson, threads=cfg.threads,
+                              hot_sweeps=cfg.hot_sweeps)
+    return st.carry_over(model, state), state
+
+
+def _ramp(cfg, every) -> Ramp:
+    """The isotropic stage's pressure: 0 to p over ``ramp_steps``, raised every ``every``
+    steps (a sudden p on a loose sample throws its outer grains in at metres per second)."""
+    return Ramp(0.0, cfg.p, cfg.ramp_steps, every=every)
+
+
+class _SplitRecorder(Recorder):
+    """A recorder of one function returning a dict of the values ``keys``."""
+
+    def __init__(self, fn, keys, every):
+        super().__init__({k: None for k in keys}, every)
+        self.fn = fn
+        self.rows = {}
+
+    def values(self, model, state) -> dict:
+        return self.fn(model, state)
+
+
+def _recording(rig, cfg, test, units, values, every):
+    """(recorder, history, stages) of a triaxial test: ``values(model, state)`` (a dict of
+    the ``units``' keys) recorded every ``record_every`` steps into the HDF5 history, the
+    stages starting on the isotropic stage's model (:func:`_compaction`) and reporting
+    every ``every`` steps."""
+    rec = _SplitRecorder(values, tuple(units), cfg.record_every)
+    hist = history_writer(cfg.history, rec, units, cfg.record_every, cfg.frames,
+                          meta=run_meta(test, cfg.est_steps, **_meta(rig, cfg)))
+    stages = Stages(_compaction(rig.model, cfg.compaction_mu), rig.state, [rec, hist],
+                    progress=cfg.progress, total=cfg.est_steps,
+                    desc=test.replace("_", " "), report_every=every)
+    return rec, hist, stages
+
+
+def _meta(rig, cfg) -> dict:
+    """What the history says of the run (:func:`run_meta`)."""
+    out = dict(scale=cfg.scale, seed=cfg.seed, sample=rig.st.source,
+               preparation=cfg.preparation)
+    if hasattr(cfg, "confinement"):
+        out["confinement"] = cfg.confinement
+    return dict(out, pressure=cfg.p, wire=rig.st.has_wire, wire_law=cfg.law,
+                neighbour_contact=cfg.neighbour_contact, axial_strain=cfg.eps_max,
+                strain_rate=cfg.rate, dt=cfg.dt, theta=cfg.theta, tol=cfg.tol,
+                max_iter=cfg.max_iter, mu=cfg.mu, mu_wall=cfg.mu_wall, mu_wire=cfg.mu_wire)
+
+
+class _Isotropic:
+    """The stop condition of the isotropic stage: every ``every`` steps from its start, the
+    pressure is at p and every stress ``measure()`` returns is within ``iso_tol`` of it, for
+    ``iso_hold`` checks in a row."""
+
+    def __init__(self, rig, cfg, every, measure):
+        self.rig, self.p, self.tol, self.hold = rig, cfg.p, cfg.iso_tol, cfg.iso_hold
+        self.measure, self.every, self.origin = measure, every, rig.state.step
+        self.ok, self.values = 0, ()
+
+    def trigger(self, step) -> bool:
+        return (step - self.origin) % self.every == 0
+
+    def __call__(self, model, state) -> bool:
+        self.values = self.measure()
+        ok = (state.drive_pressure[self.rig.top] == self.p
+              and all(abs(v / self.p - 1) < self.tol for v in self.values))
+        self.ok = self.ok + 1 if ok else 0
+        return self.ok >= self.hold
+
+
+def _isotropic(stages, rig, cfg, every, measure, updaters) -> bool:
+    """Stage 1: the pressure raised by its ramp (:class:`~engine.schedules.FollowSchedules`
+    every ``every`` steps, then ``updaters``) until :class:`_Isotropic` holds, at most
+    ``iso_max_steps`` rounded up to a multiple of ``every``.  Returns whether it held; if
+    not, a RuntimeWarning says so with the stresses reached (the loading then starts from
+    there, and the result's ``params["iso_reached"]`` is False)."""
+    stages.set_stage("isotropic")
+    until = _Isotropic(rig, cfg, every, measure)
+    trigger = until.trigger
+    steps = -(-cfg.iso_max_steps // every) * every
+    start = stages.steps
+    stages.run(steps, updaters=[FollowSchedules(trigger), *updaters], until=until)
+    reached = until.ok >= cfg.iso_hold
+    if not reached and not stages.interrupted:
+        got = ", ".join(f"{v:.4g}" for v in until.values)
+        warnings.warn(f"the isotropic stage did not reach {cfg.p:.4g} Pa (within "
+                      f"{cfg.iso_tol:.0%} for {cfg.iso_hold} checks) in {stages.steps - start} "
+                      f"steps (iso_max_steps = {cfg.iso_max_steps}): the stresses were {got} "
+                      f"Pa; the loading starts from there. Raise iso_max_steps",
+                      RuntimeWarning, stacklevel=3)
+    return reached
+
+
+def _loading(stages, rig, cfg) -> None:
+    """Between the stages: the loading's reference (height H0, radius R0, positions), the
+    sample's state at its start, the wire's prestrain, and the top plate switched to the
+    velocity ε̇ H0 downwards (:meth:`~engine.model.Model.with_drive`) for ``n_load`` steps."""
+    rig.stage = 1
+    stages.set_stage("loading")
+    state = rig.state
+    rig.H0 = rig.height(state)
+    volume = (math.pi * rig.membrane.membrane.radius ** 2 * rig.H0 if rig.membrane is not None
+              else float(np.prod(_box_dims(rig, state))))
+    rig.R0 = rig.membrane.membrane.radius if rig.membrane is not None else 0.0
+    rig.ref = state.position.copy()
+    rig.preload = _loading_start(rig.model, state, rig.st, volume)
+    model = rig.model
+    if rig.st.has_wire and cfg.wire_prestrain:
+        model = _prestrained(model, state, cfg.wire_prestrain)
+    rig.model = stages.model = model.with_drive(rig.top, velocity=(0.0, 0.0, -cfg.rate * rig.H0))
+    rig.n_load = int(math.ceil(cfg.eps_max / (cfg.rate * cfg.dt)))
+
+
+def _ended(stages, rig) -> None:
+    """After the loading: the end state to the writers that have not recorded it
+    (:meth:`Stages.record_last`), the best-fit strains of the loading (Eq. 19)."""
+    stages.record_last()
+    rig.strains = _best_fit(rig.ref, rig.state, rig.sand, rig.bead_ids)
+
+
+def _params(rig, cfg, deposit) -> dict:
+    """``result.params`` of both tests (the cylinder's adds its confinement)."""
+    st, wire = rig.st, rig.st.has_wire
+    return dict(scale=cfg.scale, sample=st.source, preparation=cfg.preparation,
+                wire_density=st.wire_density,
+                wire_mode=cfg.wire_mode if cfg.sample is None else None,
+                bead_radius=st.bead_radius if wire else None,
+                wire_prestrain=cfg.wire_prestrain if wire else 0.0,
+                deposit_steps=cfg.deposit_steps if deposit is not None else None,
+                pressure=cfg.p, wire=wire, wire_law=repr(cfg.law),
+                neighbour_contact=bool(wire and cfg.neighbour_contact),
+                axial_strain=cfg.eps_max, strain_rate=cfg.rate, inertial_number=cfg.I,
+                loading_velocity=cfg.rate * rig.H0, dt=cfg.dt, theta=cfg.theta, tol=cfg.tol,
+                max_iter=cfg.max_iter, anderson=cfg.anderson, threads=cfg.threads,
+                hot_sweeps=cfg.hot_sweeps, mu=cfg.mu, mu_wall=cfg.mu_wall,
+                mu_wire=cfg.mu_wire, compaction_mu=cfg.compaction_mu, seed=cfg.seed,
+                n_sand=int(st.sand_radii.size), n_beads=st.n_beads, d_mean=rig.d_mean,
+                iso_reached=cfg.iso_reached)
+
+
+def _insert_after(d: dict, key: str, **new) -> dict:
+    """``d`` with the items ``new`` after ``key`` (the order the results always had)."""
+    out = {}
+    for k, v in d.items():
+        out[k] = v
+        if k == key:
+            out.update(new)
+    return out
+
+
+def _common_result(name, rig, cfg, rec, deposit):
+    """(result, loading rows, isotropic rows) with the parts both tests share."""
+    tri, iso = _split(rec, rig.stage_of)
+    res = _result(name, tri, rig.H0, cfg.history)
+    res.params = _params(rig, cfg, deposit)
+    res.extra["start"] = _start_extra(rig.st, deposit, rig.preload)
+    res.extra["best_fit_strain"] = rig.strains
+    return res, tri, iso
+
+
+# -- the cylinder ---------------------------------------------------------------------------------
+#: What the cylinder test records (and the unit of each).
+CYLINDER_UNITS = dict(stress="Pa", sand_stress="Pa", wire_stress="Pa", height="m",
+                      volume="m^3", radius="m", stage="-", time="s", step="-")
+
+
+def _check_width(st, scale) -> None:
+    across = 2 * st.outer_radius(st.axis()) / (2 * float(st.sand_radii.mean()))
+    if across < 5.5:
+        raise ValueError(
+            f"scale {scale} gives a sample {across:.1f} mean grain diameters across; the "
+            f"free-surface confinement needs at least 5.5 (scale >= 0.04): on thinner samples "
+            f"it threw grains out at tens of m/s (measured at scale 0.03)")
+
+
+class _SampleApart(MembraneUpdater):
+    """The cylinder's membrane updater, whose :class:`ConfinementError` says what to do."""
+
+    def __init__(self, membrane, top, every, cfg):
+        super().__init__(membrane, top, every)
+        self.cfg = cfg
+
+    def apply(self, model, state) -> None:
+        try:
+            super().apply(model, state)
+        except ConfinementError as e:
+            raise ConfinementError(
+                f"cylinder_triaxial: the sample came apart: {e}. Seen on samples of scale "
+                f"0.04 (here scale {self.cfg.scale:g}, seed {self.cfg.seed}); use a larger "
+                f"scale. The history {self.cfg.history} keeps the steps run so far.") from e
+
+
+def _cylinder_rig(st, cfg) -> _Rig:
+    """The cylinder's scene: the sample on a fixed floor under a top plate driven by the
+    pressure ramp on the area π R² of the membrane (:class:`MembraneUpdater`, every
+    ``confine_every`` steps), whose loads go on sand grains only (a cell's share on a light
+    wire bead accelerates it by ~1e6 m/s² and blew the run up); the membrane applied once."""
+    _check_width(st, cfg.scale)
+    axis = st.axis()
+    sc, sand, bead_ids = _scene(st, cfg)
+    floor = sc.add_plane(point=(axis[0], axis[1], st.floor), normal=(0, 0, 1), group="wall")
+    top = sc.add_plane(point=(axis[0], axis[1], st.floor + st.height), normal=(0, 0, -1),
+                       group="wall")
+    sc.drive(top, pressure=_ramp(cfg, cfg.confine_every), mass=0.2 * st.sand_mass,
+             area=Servo("membrane"))
+    sc.fix(floor)
+    model, state = _compiled(sc, st, cfg)
+    membrane = _SampleApart(_membrane(cfg.confinement, np.asarray(sand), axis), top,
+                            _every_from(state.step, cfg.confine_every), cfg)
+    membrane.apply(model, state)
+    return _Rig(model, state, st, np.asarray(sand), bead_ids, floor, top, membrane=membrane,
+                axis=axis)
+
+
+def _every_from(origin, n):
+    """The trigger of every ``n`` steps from step ``origin``."""
+    return lambda step: (step - origin) % n == 0
+
+
+def _cylinder_stresses(rig, model, state):
+    """(σ, σ_sand, σ_wire, V): Eq. (18) over the whole sample of volume V = π R² H (the
+    membrane is its lateral boundary, its loads a part of the sand's)."""
+    conf = rig.membrane.membrane
+    V = math.pi * conf.radius ** 2 * rig.height(state)
+    mem = conf.membrane_stress(model) / V
+    sand_s = _weber(model, state, "sand", V) - mem
+    wire_s = _weber(model, state, "wire", V) if model.n_links else np.zeros((3, 3))
+    return sand_s + wire_s, sand_s, wire_s, V
+
+
+def _cylinder_values(rig):
+    def values(model, state):
+        tot, sand_s, wire_s, V = _cylinder_stresses(rig, model, state)
+        rig.stage_of.append(rig.stage)
+        return dict(stress=tot, sand_stress=sand_s, wire_stress=wire_s, height=rig.height(state),
+                    volume=V, radius=rig.membrane.membrane.radius, stage=rig.stage,
+                    time=state.time, step=state.step)
+    return values
+
+
+class _TopStress(Updater):
+    """The stress on the top plate [Pa] (compression positive: the spheres push it up) on
+    the membrane's area π R² of the step just run: placed before the membrane's updater."""
+
+    def __init__(self, rig, trigger):
+        self.rig, self.trigger, self.value = rig, trigger, math.nan
+
+    def update(self, model, state) -> None:
+        rig = self.rig
+        self.value = (wall_forces(rig.model, state, [rig.top])[0, 2]
+                      / (math.pi * rig.membrane.membrane.radius ** 2))
+
+
+def _cylinder_isotropic(stages, rig, cfg) -> bool:
+    """The isotropic stage of the cylinder: the ramp, the top plate's stress measured, the
+    membrane updated, then the check of the mean stress and the plate's."""
+    probe = _TopStress(rig, rig.membrane.trigger)
+
+    def measure():
+        return (-np.trace(_cylinder_stresses(rig, rig.model, rig.state)[0]) / 3, probe.value)
+
+    return _isotropic(stages, rig, cfg, cfg.confine_every, measure, [probe, rig.membrane])
+
+
+class _TorusMaps(Updater):
+    """The toroidal maps of the wire stress (Fig. 13c) at the strains ``torus_strains``,
+    each taken at the membrane's first update at or past it; the last update, within one
+    step of the final strain (the first step lags by θ h ε̇), takes a target equal to it."""
+
+    def __init__(self, rig, cfg, trigger):
+        self.rig, self.trigger, self.eps_max = rig, trigger, cfg.eps_max
+        self.targets = sorted(float(e) for e in cfg.torus_strains if e <= cfg.eps_max + 1e-12)
+        self.end = rig.state.step + rig.n_load
+
+    def update(self, model, state) -> None:
+        rig, targets = self.rig, self.targets
+        H = rig.height(state)
+        eps = 1 - H / rig.H0
+        last = state.step >= self.end
+        while targets and rig.st.has_wire and (
+                eps >= targets[0] or (last and targets[0] >= self.eps_max - 1e-12)):
+            e = targets.pop(0)
+            rig.maps[e] = toroidal_map(model, state, Cylinder(
+                rig.membrane.membrane.radius, H,
+                (rig.axis[0], rig.axis[1], state.position[rig.floor, 2])), part="wire")
+
+
+def _cylinder_loading_updaters(rig, cfg) -> list:
+    """The loading's updaters: the membrane every ``confine_every`` steps from the
+    loading's start and at its last step, then the toroidal maps."""
+    origin, every, end = rig.state.step, cfg.confine_every, rig.state.step + rig.n_load
+    trigger = (lambda step: (step - origin) % every == 0 or step == end)
+    rig.membrane = _SampleApart(rig.membrane.membrane, rig.top, trigger, cfg)
+    return [rig.membrane, _TorusMaps(rig, cfg, trigger)]
+
+
+def _cylinder_result(rig, cfg, rec, deposit) -> TestResult:
+    res, tri, iso = _common_result("cylinder_triaxial", rig, cfg, rec, deposit)
+    res.params = _insert_after(res.params, "preparation", confinement=cfg.confinement)
+    if len(res.time):
+        res.extra["radial_strain"] = tri["radius"] / rig.R0 - 1          # extension positive
     res.extra["isotropic"] = dict(time=iso.get("time"), mean_stress=_mean(iso.get("stress")),
                                   axial_stress=_axial(iso.get("stress")),
-                                  wall_stress=iso.get("wall_stress"), reached=iso_reached)
+                                  reached=cfg.iso_reached)
+    res.extra["torus_maps"] = rig.maps
+    res.extra["height"], res.extra["radius"] = tri.get("height"), tri.get("radius")
+    if rig.st.has_wire and len(res.time) >= 5:
+        try:
+            res.extra["H"] = macro_stiffness(res.axial_strain, res.wire_equivalent)
+        except ValueError as e:
+            res.extra["H"] = None
+            res.extra["H_error"] = str(e)
+    return res
+
+
+# -- the box ------------------------------------------------------------------------------------
+#: What the box test records (and the unit of each).
+BOX_UNITS = dict(stress="Pa", sand_stress="Pa", wire_stress="Pa", wire_stress_upper="Pa",
+                 wire_stress_lower="Pa", wall_stress="Pa", height="m", volume="m^3",
+                 radius="m", stage="-", time="s", step="-")
+
+
+def _box_rig(st, cfg) -> _Rig:
+    """The box's scene: the sample on a fixed floor, four side walls and a top plate driven
+    by the pressure ramp on the faces of the sample (:class:`BoxFaces`, each step), with
+    mass ``wall_mass`` (None: 0.2 × the sample's)."""
+    box = st.box()
+    lo, hi = np.array(box.lo), np.array(box.hi)
+    sc, sand, bead_ids = _scene(st, cfg)
+    cfg.wall_mass = 0.2 * st.sand_mass if cfg.wall_mass is None else float(cfg.wall_mass)
+    floor = sc.add_plane(point=(0, 0, lo[2]), normal=(0, 0, 1), group="wall")
+    top = sc.add_plane(point=(0, 0, lo[2] + st.height), normal=(0, 0, -1), group="wall")
+    sides = tuple(sc.add_plane(point=pt, normal=n, group="wall") for pt, n in (
+        ((lo[0], 0, 0), (1, 0, 0)), ((hi[0], 0, 0), (-1, 0, 0)),
+        ((0, lo[1], 0), (0, 1, 0)), ((0, hi[1], 0), (0, -1, 0))))
+    ramp = _ramp(cfg, cfg.check_every)
+    for b in (*sides, top):
+        sc.drive(b, pressure=ramp, mass=cfg.wall_mass, area=Servo("box faces"))
+    sc.fix(floor)
+    model, state = _compiled(sc, st, cfg)
+    return _Rig(model, state, st, np.asarray(sand), bead_ids, floor, top, sides=sides,
+                faces=BoxFaces(floor, top, sides))
+
+
+def _box_dims(rig, state):
+    """(L_x, L_y, H) [m] of the box between its walls."""
+    x, s = state.position, rig.sides
+    return x[s[1], 0] - x[s[0], 0], x[s[3], 1] - x[s[2], 1], x[rig.top, 2] - x[rig.floor, 2]
+
+
+def _wall_sigma(rig, model, state):
+    """The stresses on the walls x−, x+, y−, y+, top [Pa], compression positive (the spheres
+    push each wall against its normal)."""
+    Lx, Ly, H = _box_dims(rig, state)
+    walls = np.array([*rig.sides, rig.top])
+    f = wall_forces(model, state, walls)
+    areas = np.array([Ly * H, Ly * H, Lx * H, Lx * H, Lx * Ly])
+    normals = np.array([model.body_axis[b] for b in walls])
+    return -np.einsum("ka,ka->k", f, normals) / areas
+
+
+def _wire_halves(rig, model, state, Lx, Ly, H):
+    """The wire's Weber stress in the upper and lower halves of the box (Fig. 11)."""
+    zmid = state.position[rig.floor, 2] + 0.5 * H
+    x0, y0 = state.position[rig.sides[0], 0], state.position[rig.sides[2], 1]
+    halves = []
+    for zl, zh in ((zmid, zmid + 0.5 * H), (zmid - 0.5 * H, zmid)):
+        reg = Box((x0, y0, zl), (x0 + Lx, y0 + Ly, zh))
+        try:
+            halves.append(weber_stress(model, state, region=reg, part="wire").tensor
+                          if model.n_links else np.zeros((3, 3)))
+        except ValueError:
+            halves.append(np.full((3, 3), np.nan))
+    return halves
+
+
+def _box_values(rig):
+    def values(model, state):
+        Lx, Ly, H = _box_dims(rig, state)
+        V = Lx * Ly * H
+        sand_s = _weber(model, state, "sand", V)
+        wire_s = _weber(model, state, "wire", V) if model.n_links else np.zeros((3, 3))
+        upper, lower = _wire_halves(rig, model, state, Lx, Ly, H)
+        rig.stage_of.append(rig.stage)
+        return dict(stress=sand_s + wire_s, sand_stress=sand_s, wire_stress=wire_s,
+                    wire_stress_upper=upper, wire_stress_lower=lower,
+                    wall_stress=_wall_sigma(rig, model, state), height=H, volume=V,
+                    radius=0.0, stage=rig.stage, time=state.time, step=state.step)
+    return values
+
+
+def _box_measure(rig):
+    """The isotropic stage's stresses: the mean stress and the five walls'."""
+    def measure():
+        Lx, Ly, H = _box_dims(rig, rig.state)
+        return (-np.trace(_weber(rig.model, rig.state, "all", Lx * Ly * H)) / 3,
+                *_wall_sigma(rig, rig.model, rig.state))
+    return measure
+
+
+def _box_result(rig, cfg, rec, deposit) -> TestResult:
+    res, tri, iso = _common_result("box_triaxial", rig, cfg, rec, deposit)
+    res.params = _insert_after(res.params, "compaction_mu", wall_mass=cfg.wall_mass)
+    res.extra["isotropic"] = dict(time=iso.get("time"), mean_stress=_mean(iso.get("stress")),
+                                  axial_stress=_axial(iso.get("stress")),
+                                  wall_stress=iso.get("wall_stress"), reached=cfg.iso_reached)
     res.extra["wall_stress"] = tri.get("wall_stress")
     for half in ("upper", "lower"):
         t = tri.get(f"wire_stress_{half}")
@@ -766,5 +915,4 @@ def box_triaxial(scale: float = 0.05, *, sample=None, preparation: str = "geomet
         if t is not None and len(t) and np.all(np.isfinite(t[-1])):
             w, v = principal(t[-1])
             res.extra[f"wire_principal_{half}"] = (w, v)
-    res.extra["best_fit_strain"] = strains
-    return finish(res, stages, max_nonconverged)
+    return res

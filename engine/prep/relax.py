@@ -11,6 +11,7 @@ import numpy as np
 from ..analysis.energy import kinetic_energy
 from ..model import SPHERE
 from ..step import NonConvergenceWarning, run
+from ..trigger import Updater
 
 __all__ = ["relax", "RelaxReport", "kinetic_energy"]
 
@@ -86,6 +87,47 @@ def _top_body(rep, model, state, bodies) -> None:
     rep.top_spin_share = float(rot[k] / e[k])
 
 
+class _Watch(Updater):
+    """The updater and stop condition of :func:`relax`: every ``check_every`` steps (and at
+    the last, ``max_steps``) it reads the watched bodies' kinetic energy into the report and
+    the bar; at rest when, from ``min_steps`` on, it is at most ``ke_fraction`` of its
+    peak."""
+
+    def __init__(self, rep, origin, check_every, max_steps, min_steps, ke_fraction, bodies,
+                 progress):
+        self.rep, self.origin, self.every = rep, origin, check_every
+        self.max_steps, self.min_steps, self.f, self.bodies = (max_steps, min_steps,
+                                                               ke_fraction, bodies)
+        self.history, self.last, self.shown = [], None, 0
+        self.bar = None
+        if progress:
+            from tqdm.auto import tqdm
+            import sys
+            self.bar = tqdm(total=int(max_steps), unit="step", desc="relax", dynamic_ncols=True,
+                            mininterval=0.1 if sys.stderr.isatty() else 10.0)
+
+    def trigger(self, step) -> bool:
+        n = step - self.origin
+        return n % self.every == 0 or n == self.max_steps
+
+    def update(self, model, state) -> None:
+        rep = self.rep
+        self.last = state.step
+        ke = kinetic_energy(model, state, self.bodies)
+        self.history.append((state.time, ke))
+        rep.peak_kinetic_energy = max(rep.peak_kinetic_energy, ke)
+        rep.final_kinetic_energy = ke
+        rep.ratio = ke / rep.peak_kinetic_energy if rep.peak_kinetic_energy > 0 else 0.0
+        if self.bar is not None:
+            n = state.step - self.origin
+            self.bar.update(n - self.shown)
+            self.shown = n
+            self.bar.set_postfix(ke_ratio=f"{rep.ratio:.1e}", refresh=False)
+
+    def __call__(self, model, state) -> bool:
+        return state.step - self.origin >= self.min_steps and self.rep.ratio <= self.f
+
+
 def relax(model, state, *, ke_fraction: float = 1e-4, max_steps: int = 20000,
           min_steps: int = 100, check_every: int = 10, bodies=None,
           progress: bool = True) -> RelaxReport:
@@ -130,44 +172,26 @@ def relax(model, state, *, ke_fraction: float = 1e-4, max_steps: int = 20000,
         sph = np.flatnonzero(np.asarray(model.body_kind) == SPHERE)
         bodies = np.setdiff1d(sph, beads)
     rep = RelaxReport()
-    hist = []
-    bar = None
-    if progress:
-        from tqdm.auto import tqdm
-        import sys
-        bar = tqdm(total=int(max_steps), unit="step", desc="relax", dynamic_ncols=True,
-                   mininterval=0.1 if sys.stderr.isatty() else 10.0)
+    watch = _Watch(rep, state.step, check_every, max_steps, min_steps, f, bodies, progress)
     t0 = state.time
     try:
-        while rep.steps < max_steps:
-            n = int(min(check_every, max_steps - rep.steps))
-            with warnings.catch_warnings():
-                warnings.simplefilter("ignore", NonConvergenceWarning)
-                summ = run(model, state, n, progress=False)
-            rep.steps += summ.steps
-            rep.wall_time += summ.wall_time
-            rep.non_converged += summ.non_converged
-            ke = kinetic_energy(model, state, bodies)
-            hist.append((state.time, ke))
-            rep.peak_kinetic_energy = max(rep.peak_kinetic_energy, ke)
-            rep.final_kinetic_energy = ke
-            rep.ratio = ke / rep.peak_kinetic_energy if rep.peak_kinetic_energy > 0 else 0.0
-            if bar is not None:
-                bar.update(summ.steps)
-                bar.set_postfix(ke_ratio=f"{rep.ratio:.1e}", refresh=False)
-            if summ.interrupted:
-                rep.interrupted = True
-                break
-            if rep.steps >= min_steps and rep.ratio <= f:
-                rep.at_rest = True
-                break
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore", NonConvergenceWarning)
+            summ = run(model, state, int(max_steps), progress=False, updaters=[watch],
+                       until=watch)
+        if summ.interrupted and watch.last != state.step:
+            watch.update(model, state)          # the state a Ctrl-C left, looked at too
+        rep.steps, rep.wall_time = summ.steps, summ.wall_time
+        rep.non_converged = list(summ.non_converged)
+        rep.interrupted = summ.interrupted
+        rep.at_rest = summ.condition_met and not summ.interrupted
     finally:
-        if bar is not None:
-            bar.close()
+        if watch.bar is not None:
+            watch.bar.close()
         rep.time = state.time - t0
         rep.wire_kinetic_energy = kinetic_energy(model, state, beads) if beads.size else 0.0
         _top_body(rep, model, state, np.asarray(bodies))
-        rep.history = np.asarray(hist).reshape(-1, 2)
+        rep.history = np.asarray(watch.history).reshape(-1, 2)
     if not rep.at_rest and not rep.interrupted:
         warnings.warn(str(rep), RuntimeWarning, stacklevel=2)
     if rep.non_converged:

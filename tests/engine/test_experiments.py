@@ -201,6 +201,21 @@ def test_the_end_state_is_recorded(name, request):
     assert np.all(np.diff(h.step) > 0)                    # no record written twice
 
 
+@pytest.mark.parametrize("name, walls", [("cyl", 1), ("box", 5)])
+def test_the_history_holds_the_drives_as_data(name, walls, request):
+    """The walls' pressure is a Ramp to p and their areas Servo values, stored in the
+    history's model as data: no Python callable stands in for them (issue 32 §2)."""
+    from engine.io import UnsavedCallable, load_model
+    from engine.schedules import Ramp, Servo
+
+    r = request.getfixturevalue(name)
+    drives = [d for d in load_model(r.history).drives if d.kind == "pressure"]
+    assert len(drives) == walls
+    for d in drives:
+        assert d.value == Ramp(0.0, P, 400, every=10)       # the defaults: ramp_steps, ..._every
+        assert isinstance(d.area, Servo) and not isinstance(d.area, UnsavedCallable)
+
+
 def test_isotropic_stage_not_reached_is_said(tmp_path):
     """An isotropic stage cut short by iso_max_steps warns with the stresses reached, and
     the result says so (its loading started below the confining pressure)."""
@@ -221,12 +236,12 @@ def test_compaction_friction_holds_in_the_isotropic_stage_only(monkeypatch, tmp_
     seen = []
     run = common.Stages.run
 
-    def spy(self, n):
+    def spy(self, n, **kw):
         m = self.model
         law = m.pair_law
         seen.append((m.law_param[law[m.group_id("sand"), m.group_id("sand")], 0],
                      m.law_param[law[m.group_id("wire"), m.group_id("sand")], 0]))
-        return run(self, n)
+        return run(self, n, **kw)
 
     monkeypatch.setattr(common.Stages, "run", spy)
     r = box_triaxial(0.02, axial_strain=0.002, iso_max_steps=50, compaction_mu=0.05,

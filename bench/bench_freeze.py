@@ -33,7 +33,8 @@ for p in (str(HERE.parent), str(HERE), str(HERE / "peers")):
 
 import numpy as np  # noqa: E402
 
-from engine import Scene, laws, step  # noqa: E402
+from bench_residual import mould_model, peers_model  # noqa: E402
+from engine import step  # noqa: E402
 from engine.contact import detect  # noqa: E402
 from engine.integrator import free_velocity  # noqa: E402
 from engine.solver import kernels as K  # noqa: E402
@@ -85,45 +86,14 @@ def solve_counting(model, state, factor, hot_sweeps, max_iter):
                 contacts=int(n))
 
 
-def peers_states(steps_at):
-    import common
-    from bench_core import deposit_scene
-    P = common.PARAMS
-    model0, state0, geom = deposit_scene(*P["lattice"])
-    sph = model0.sphere_ids
-    s = Scene(gravity=(0.0, 0.0, -P["gravity"]))
-    s.add_spheres(state0.position[sph], model0.body_radius[sph], density=P["density"],
-                  group="sand")
-    s.add_box(geom["box_lo_m"], geom["box_hi_m"], group="wall")
-    s.interact("sand", "sand", laws.Coulomb(mu=P["mu"]))
-    s.interact("sand", "wall", laws.Coulomb(mu=P["mu"]))
-    model, state = s.compile(dt=P["dt"], theta=P["theta"], tol=P["tol"],
-                             max_iter=P["max_iter"], hot_sweeps=2)
+def states_at(model, state, steps_at, label):
+    """{"label, step k": the state before step k} for k in ``steps_at``, stepping on."""
     out = {}
     for k in range(max(steps_at) + 1):
         if k in steps_at:
-            out[f"peers deposit, step {k}"] = state.copy()
+            out[f"{label}, step {k}"] = state.copy()
         step(model, state)
-    return model, out
-
-
-def mould_states(scale, steps_at):
-    from engine.prep import paper_sample
-    from engine.experiments.deposit import _mould
-    from engine.experiments.common import deposit_laws, wire_law_or_default
-    smp = paper_sample("slope", scale, wire=True, seed=0)
-    sc = Scene(gravity=(0.0, 0.0, -9.81))
-    smp.add_to(sc, wire_law=wire_law_or_default(None))
-    lo, hi = smp.container.bounds()
-    _mould(sc, smp.container, 1.1 * max(hi[2] - lo[2], smp.height))
-    deposit_laws(sc, "wall", mu=0.5, mu_support=0.5, mu_wire=0.3, wire=True)
-    model, state = sc.compile(dt=1e-4, theta=0.5, tol=1e-4, max_iter=1000, hot_sweeps=2)
-    out = {}
-    for k in range(max(steps_at) + 1):
-        if k in steps_at:
-            out[f"mould deposit scale {scale}, step {k}"] = state.copy()
-        step(model, state)
-    return model, out
+    return out
 
 
 def main(argv=None):
@@ -133,9 +103,14 @@ def main(argv=None):
     a = ap.parse_args(argv)
     busy = Busy()
     cases = []
-    m1, st1 = peers_states((300,) if a.quick else (700, 1000, 1300))
+    import common
+    m1, s1 = peers_model(common.PARAMS["tol"], hot_sweeps=2)
+    st1 = states_at(m1, s1, (300,) if a.quick else (700, 1000, 1300), "peers deposit")
     cases += [(m1, k, v) for k, v in st1.items()]
-    m2, st2 = mould_states(0.05 if a.quick else 0.1, (20,) if a.quick else (50, 160, 250))
+    scale = 0.05 if a.quick else 0.1
+    m2, s2 = mould_model(scale, True, hot_sweeps=2)
+    st2 = states_at(m2, s2, (20,) if a.quick else (50, 160, 250),
+                    f"mould deposit scale {scale}")
     cases += [(m2, k, v) for k, v in st2.items()]
     rows = []
     for model, name, state in cases:

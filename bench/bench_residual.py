@@ -72,21 +72,49 @@ def _summary(rows, tol, max_iter):
     )
 
 
-def peers_deposit(quick: bool, tol: float) -> dict:
+def peers_model(tol: float, **options):
+    """The peers' deposit (bench/peers: bench_core's loose lattice of 1 000 spheres in an
+    open box, the peers' h, θ, μ, max_iter) compiled at ``tol`` with ``options``."""
     import common
     from bench_core import deposit_scene
+    from engine import laws
     P = common.PARAMS
     model0, state0, geom = deposit_scene(*P["lattice"])
     sph = model0.sphere_ids
-    from engine import laws
     s = Scene(gravity=(0.0, 0.0, -P["gravity"]))
     s.add_spheres(state0.position[sph], model0.body_radius[sph], density=P["density"],
                   group="sand")
     s.add_box(geom["box_lo_m"], geom["box_hi_m"], group="wall")
     s.interact("sand", "sand", laws.Coulomb(mu=P["mu"]))
     s.interact("sand", "wall", laws.Coulomb(mu=P["mu"]))
-    model, state = s.compile(dt=P["dt"], theta=P["theta"], tol=tol,
-                             max_iter=P["max_iter"], natural_residual=True)
+    return s.compile(dt=P["dt"], theta=P["theta"], tol=tol, max_iter=P["max_iter"],
+                     **options)
+
+
+def mould_model(scale: float, wire: bool, **options):
+    """gravity_deposit's mould around the slope sample (seed 0) at ``scale``, with its wire
+    (ElasticWire 1 N) or with the same sand only (the holes kept), h = 1e-4 s, tol 1e-4,
+    max_iter 1 000, ``options`` added."""
+    from engine.prep import paper_sample
+    from engine.experiments.deposit import _mould
+    from engine.experiments.common import deposit_laws, wire_law_or_default
+    smp = paper_sample("slope", scale, wire=True, seed=0)
+    sc = Scene(gravity=(0.0, 0.0, -9.81))
+    if wire:
+        smp.add_to(sc, wire_law=wire_law_or_default(None))
+    else:
+        sc.add_spheres(smp.sand_centers, smp.sand_radii, density=2650.0, group="sand")
+    lo, hi = smp.container.bounds()
+    _mould(sc, smp.container, 1.1 * max(hi[2] - lo[2], smp.height))
+    deposit_laws(sc, "wall", mu=0.5, mu_support=0.5, mu_wire=0.3, wire=wire)
+    return sc.compile(dt=1e-4, theta=0.5, tol=1e-4, max_iter=1000, **options)
+
+
+def peers_deposit(quick: bool, tol: float) -> dict:
+    import common
+    P = common.PARAMS
+    model, state = peers_model(tol, natural_residual=True)
+    sph = model.sphere_ids
     m = model.body_mass[sph]
     peak = [0.0]
 
@@ -107,20 +135,7 @@ def peers_deposit(quick: bool, tol: float) -> dict:
 
 
 def mould(scale: float, steps: int, wire: bool) -> dict:
-    from engine.prep import paper_sample
-    from engine.experiments.deposit import _mould
-    from engine.experiments.common import deposit_laws, wire_law_or_default
-    smp = paper_sample("slope", scale, wire=True, seed=0)
-    sc = Scene(gravity=(0.0, 0.0, -9.81))
-    if wire:
-        smp.add_to(sc, wire_law=wire_law_or_default(None))
-    else:   # the same sand, its wire left out (the holes stay)
-        sc.add_spheres(smp.sand_centers, smp.sand_radii, density=2650.0, group="sand")
-    lo, hi = smp.container.bounds()
-    _mould(sc, smp.container, 1.1 * max(hi[2] - lo[2], smp.height))
-    deposit_laws(sc, "wall", mu=0.5, mu_support=0.5, mu_wire=0.3, wire=wire)
-    model, state = sc.compile(dt=1e-4, theta=0.5, tol=1e-4, max_iter=1000, hot_sweeps=2,
-                              natural_residual=True)
+    model, state = mould_model(scale, wire, hot_sweeps=2, natural_residual=True)
     t0 = time.perf_counter()
     rows = _run(model, state, steps, None, f"mould deposit, wire={wire}")
     return dict(scene=f"gravity_deposit's mould, slope sample scale {scale}, seed 0, "

@@ -23,7 +23,7 @@ import math
 import numpy as np
 
 from .errors import ConfinementError  # noqa: F401  (its home until 2026-12-05)
-from .schedules import Schedule
+from .schedules import drive_values  # noqa: F401  (here until 2026-12-05)
 from .trigger import Updater, as_trigger
 
 
@@ -32,32 +32,6 @@ def _vector(value, what: str) -> np.ndarray:
     if v.shape != (3,) or not np.all(np.isfinite(v)):
         raise ValueError(f"{what} must be 3 finite numbers, got {value!r}")
     return v
-
-
-def _initial(value, step: int) -> float:
-    if isinstance(value, Schedule):
-        return float(value.at(step))
-    if value is None or callable(value):
-        return 0.0                      # a callable is evaluated at each step instead
-    return float(value)
-
-
-def drive_values(model, state) -> tuple[np.ndarray, np.ndarray]:
-    """``(state.drive_pressure, state.drive_area)``, (nb,) [Pa] and [m²]: the current
-    pressure and area of each pressure-driven wall (0 elsewhere, and for a callable,
-    evaluated at each step instead; nan for a :class:`~engine.schedules.Servo` no updater
-    has set yet).  Made from the drives' schedules at ``state.step`` when
-    the state has none (a state built by hand, or read from a file written before
-    schedules)."""
-    if state.drive_pressure is None or state.drive_area is None:
-        n = model.n_bodies
-        pressure, area = np.zeros(n), np.zeros(n)
-        for d in model.drives:
-            if d.kind == "pressure":
-                pressure[d.body] = _initial(d.value, state.step)
-                area[d.body] = _initial(d.area, state.step)
-        state.drive_pressure, state.drive_area = pressure, area
-    return state.drive_pressure, state.drive_area
 
 
 def drive_forces(model, state) -> None:

@@ -192,7 +192,7 @@ class Drive:
 
     def at(self, t: float):
         """The drive value at time ``t`` [s] (a schedule as it is: its current value is in
-        the State, :func:`engine.drivers.drive_values`)."""
+        the State, :func:`engine.schedules.drive_values`)."""
         return self.value(t) if callable(self.value) else self.value
 
 

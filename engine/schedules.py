@@ -22,9 +22,11 @@ import math
 import numbers
 from dataclasses import asdict, dataclass
 
+import numpy as np
+
 from .trigger import Updater, as_trigger
 
-__all__ = ["Constant", "Ramp", "Servo", "Schedule", "FollowSchedules", "SCHEDULES",
+__all__ = ["Constant", "Ramp", "Servo", "Schedule", "FollowSchedules", "SCHEDULES", "drive_values",
            "to_dict", "from_dict"]
 
 
@@ -124,6 +126,32 @@ def from_dict(d: dict) -> Schedule:
     return cls(**d)
 
 
+def _initial(value, step: int) -> float:
+    if isinstance(value, Schedule):
+        return float(value.at(step))
+    if value is None or callable(value):
+        return 0.0                      # a callable is evaluated at each step instead
+    return float(value)
+
+
+def drive_values(model, state) -> tuple[np.ndarray, np.ndarray]:
+    """``(state.drive_pressure, state.drive_area)``, (nb,) [Pa] and [m²]: the current
+    pressure and area of each pressure-driven wall (0 elsewhere, and for a callable,
+    evaluated at each step instead; nan for a :class:`~engine.schedules.Servo` no updater
+    has set yet).  Made from the drives' schedules at ``state.step`` when
+    the state has none (a state built by hand, or read from a file written before
+    schedules)."""
+    if state.drive_pressure is None or state.drive_area is None:
+        n = model.n_bodies
+        pressure, area = np.zeros(n), np.zeros(n)
+        for d in model.drives:
+            if d.kind == "pressure":
+                pressure[d.body] = _initial(d.value, state.step)
+                area[d.body] = _initial(d.area, state.step)
+        state.drive_pressure, state.drive_area = pressure, area
+    return state.drive_pressure, state.drive_area
+
+
 class FollowSchedules(Updater):
     """The updater of the :class:`Ramp` (and :class:`Constant`) pressures of a model's
     pressure drives: every ``every`` steps (an int, or a callable ``step -> bool``),
@@ -134,8 +162,6 @@ class FollowSchedules(Updater):
         self.trigger = as_trigger(every, "FollowSchedules")
 
     def update(self, model, state) -> None:
-        from .drivers import drive_values
-
         pressure, _ = drive_values(model, state)
         for d in model.drives:
             if d.kind == "pressure" and isinstance(d.value, (Ramp, Constant)):

@@ -168,7 +168,7 @@ class State:
     drive_pressure : (nb,) float64 [Pa] or None
         Current pressure of each pressure-driven wall (0 for other bodies), from its
         drive's schedule (:mod:`engine.schedules`) or set by an updater; what the next step
-        applies.  None until :func:`engine.drivers.drive_values` makes it (Scene.compile does).
+        applies.  None until :func:`engine.schedules.drive_values` makes it (Scene.compile does).
     drive_area : (nb,) float64 [m²] or None
         Current area of each pressure-driven wall (0 elsewhere), likewise.
     contacts_buf : ContactBuffers

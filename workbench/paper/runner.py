@@ -7,12 +7,12 @@ import numpy as np
 
 
 def _law(wire, k):
-    from engine import laws
+    """(has a wire, its law) of a case (:func:`engine.experiments.config.wire_spec`)."""
+    from engine.experiments.config import wire_spec
 
     if wire == "none":                       # (the slope's sand cases carry k = 1: unused)
         return False, None
-    law = laws.wire_law(wire, stiffness=None if k is None else float(k))
-    return True, law
+    return True, wire_spec(wire, k).to_law()
 
 
 def _write_curves(path, arrays: dict):

@@ -170,6 +170,11 @@ def validate_config(raw: dict, path="run file") -> tuple[RunConfig, BaseModel]:
         problems.append("  wire: a [wire] law with parameters.sample: the start state's links "
                         "keep their own law and reference lengths; leave [wire] out (or "
                         "law = \"none\" for a state without a wire)")
+    if not problems and params is not None:
+        try:                        # the test's config (what runs), built from the file
+            file_config(cfg, params, Path("."), progress=False)
+        except ValueError as e:
+            problems.append("  " + str(e).removeprefix(f"{test}: "))
     if problems:
         where = f" ({test})" if test in _PARAMS else ""
         raise ConfigError(f"{path}: {len(problems)} problem(s){where}\n" + "\n".join(problems))

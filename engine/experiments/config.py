@@ -53,9 +53,10 @@ HOT_SWEEPS = 2
 
 
 class Strict(NumbersOnly):
-    """Unknown fields refused; numbers and bools strictly typed (:class:`~engine.checks.NumbersOnly`)."""
+    """Unknown fields refused; numbers and bools strictly typed (:class:`~engine.checks.NumbersOnly`);
+    an assignment validated as the construction is."""
 
-    model_config = ConfigDict(extra="forbid")
+    model_config = ConfigDict(extra="forbid", validate_assignment=True)
 
 
 # -- the wire --------------------------------------------------------------------------------
@@ -481,7 +482,7 @@ class TestConfig(Strict):
 
         if "scale" in kw:
             kw["scale"] = check_scale(kw["scale"])
-        if "history" in kw:
+        if isinstance(kw.get("history"), os.PathLike):
             kw["history"] = os.fspath(kw["history"])
         nested: dict = {p: {} for p in PARTS}
         for k, v in kw.items():
@@ -497,7 +498,15 @@ class TestConfig(Strict):
             return cls(**nested)
         except ValidationError as e:   # what the flat model cannot see (a path, a law)
             raise InputError(f"{cls.TEST}: " + "; ".join(
-                describe(err, cls) for err in e.errors())) from None
+                cls._describe(err) for err in e.errors())) from None
+
+    @classmethod
+    def _describe(cls, err) -> str:
+        """An error of the model in the keywords' names (a part's field by its own name)."""
+        loc = tuple(err.get("loc", ()))
+        if len(loc) > 1 and loc[0] in PARTS:
+            return describe(dict(err, loc=loc[1:]), cls.model_fields[loc[0]].annotation)
+        return describe(err, cls)
 
     def kwargs(self) -> dict:
         """The test function's keywords of this config (``wire_law`` a law object or None)."""

@@ -134,7 +134,7 @@ def slope_deposit(scale: float = 0.02, *, sample=None, wire: bool = True,
     cfg.anderson, cfg.hot_sweeps = solver_choice(cfg.anderson, cfg.hot_sweeps)
     ckpt = RestCheckpoint(cfg.history, cfg.checkpoint_every, cfg.record_every, identity)
     cfg.resume = check_bool("resume", cfg.resume)
-    cfg.fit_degree = check_fit_degree(cfg.fit_degree, cfg.wire, PROFILE_BINS)
+    cfg.fit_degree = check_fit_degree(fit_degree, cfg.wire, PROFILE_BINS)  # (2.0 refused)
     st, cfg.law = _slope_start(cfg)
     heap = _heap(st, cfg)
     model, sand = heap.model, heap.sand

@@ -103,6 +103,25 @@ def _test_kwargs(test, wire, k, seed, history, checkpoint_every, params) -> dict
     return kw
 
 
+def check_cases(cases, fixed=None) -> None:
+    """Validate every case of a report through its test's config
+    (:meth:`engine.experiments.config.TestConfig.from_kwargs`) before anything runs: a case
+    with a parameter out of range or a wire its law cannot have is refused, on one line
+    naming the case, the field, its value and the allowed range."""
+    from engine.experiments.config import CONFIGS
+
+    for c in cases:
+        p = dict(c, **(fixed or {}))
+        test, name, wire, k = p.pop("test"), p.pop("name"), p.pop("wire"), p.pop("k", None)
+        seed, runs_dir = p.pop("seed", 0), p.pop("runs_dir", ".")
+        try:
+            kw = _test_kwargs(test, wire, k, seed, os.path.join(runs_dir, f"{name}.h5"),
+                              p.pop("checkpoint_every", 60), p)
+            CONFIGS[test].from_kwargs(**kw)
+        except (ValueError, KeyError) as e:
+            raise ValueError(f"paper case {name!r}: {e}") from None
+
+
 def _deposit_curves(res, test, name) -> dict:
     """A deposit's curves: the heap's profile (slope) or the settling (mould), and the
     wire's statistics before and after."""

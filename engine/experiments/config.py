@@ -264,6 +264,15 @@ def acceleration_of(anderson=0, hot_sweeps=None):
     return Anderson(depth=a)
 
 
+def _hot_sweeps_kwarg(solver) -> int | None:
+    """The keyword ``hot_sweeps`` of a solver: None for the default (:data:`HOT_SWEEPS`
+    re-sweeps, no Anderson), as the functions' default is spelled (a resumed deposit's
+    checkpoint is tied to its keywords, :func:`~engine.experiments.common.run_identity`)."""
+    if solver.acceleration == HotSweeps():
+        return None
+    return solver.hot_sweeps
+
+
 # -- friction, preparation, loading, recording -------------------------------------------------
 SAMPLE_HELP = ("a history or checkpoint file whose last state the test starts from "
                "(None: the test builds its sample; in Python also an engine.prep.Sample or "
@@ -509,14 +518,15 @@ class TestConfig(Strict):
         return describe(err, cls)
 
     def kwargs(self) -> dict:
-        """The test function's keywords of this config (``wire_law`` a law object or None)."""
+        """The test function's keywords of this config (``wire_law`` a law object or None;
+        ``hot_sweeps`` None for the default acceleration, ``HotSweeps(sweeps=2)``)."""
         out = {}
         for name in type(self).model_fields:
             v = getattr(self, name)
             if name in PARTS:
                 for n in type(v).model_fields:
                     if n == "acceleration":
-                        out.update(anderson=v.anderson, hot_sweeps=v.hot_sweeps)
+                        out.update(anderson=v.anderson, hot_sweeps=_hot_sweeps_kwarg(v))
                     else:
                         x = getattr(v, n)
                         out[n] = list(x) if isinstance(x, list) else x

@@ -22,14 +22,11 @@ def test_every_keyword_has_its_default_in_the_schema(test):
     for name, (_, default) in keys.items():
         want = sig[name].default
         assert default == (list(want) if isinstance(want, tuple) else want), (test, name)
-    got = cls().kwargs()
-    for name, p in sig.items():
-        want = p.default
-        if name == "hot_sweeps":       # None: 2 without Anderson (the tests' behaviour)
-            assert got[name] == 2 and got["anderson"] == 0
-        else:
-            assert got[name] == (list(want) if isinstance(want, tuple) else want), (test, name)
+    got = cls().kwargs()               # the default config is the call without keywords
+    assert got == {n: (list(p.default) if isinstance(p.default, tuple) else p.default)
+                   for n, p in sig.items()}
     assert cls.from_kwargs() == cls()
+    assert cls().solver.acceleration == HotSweeps(sweeps=2)   # hot_sweeps=None: 2
 
 
 def test_default_acceleration_is_what_the_solver_runs():

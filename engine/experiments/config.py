@@ -33,7 +33,7 @@ from __future__ import annotations
 import os
 from typing import Annotated, Any, ClassVar, Literal, Optional, Union
 
-from pydantic import BaseModel, ConfigDict, Discriminator, Field, Tag, ValidationError, create_model, model_validator
+from pydantic import ConfigDict, Discriminator, Field, Tag, ValidationError, create_model, model_validator
 
 from ..checks import InputError, NumbersOnly, describe
 from ..model import MAX_ITER_LIMIT, solver_conflict

@@ -91,12 +91,12 @@ class WireConfig(_Strict):
         return self
 
     def wire_law(self):
-        """The law object (:func:`engine.laws.wire_law`; None for "none")."""
-        from engine import laws
+        """The law object (:func:`engine.experiments.config.wire_spec`; None for "none")."""
+        from engine.experiments.config import wire_spec
 
         given = {n: getattr(self, n) for n in ("stiffness", "prestrain", "max_tension")
                  if n in self.model_fields_set}
-        return laws.wire_law(self.law, **given)
+        return wire_spec(self.law, given.pop("stiffness", None), **given).to_law()
 
 
 def _default_scale(test: str) -> float:
@@ -170,6 +170,11 @@ def validate_config(raw: dict, path="run file") -> tuple[RunConfig, BaseModel]:
         problems.append("  wire: a [wire] law with parameters.sample: the start state's links "
                         "keep their own law and reference lengths; leave [wire] out (or "
                         "law = \"none\" for a state without a wire)")
+    if not problems and params is not None:
+        try:                        # the test's config (what runs), built from the file
+            file_config(cfg, params, Path("."), progress=False)
+        except ValueError as e:
+            problems.append("  " + str(e).removeprefix(f"{test}: "))
     if problems:
         where = f" ({test})" if test in _PARAMS else ""
         raise ConfigError(f"{path}: {len(problems)} problem(s){where}\n" + "\n".join(problems))
@@ -207,9 +212,16 @@ def config_help() -> str:
 
 
 def run_config(cfg: RunConfig, params: BaseModel, out: Path, progress=True):
-    from engine import experiments
+    """Run the test of a validated run file (:func:`file_config`) into ``out/run.h5``."""
+    return file_config(cfg, params, out, progress).run()
 
-    fn = getattr(experiments, cfg.test)
+
+def file_config(cfg: RunConfig, params: BaseModel, out: Path, progress=True):
+    """The test's config (:mod:`engine.experiments.config`) of a validated run file: its
+    ``[parameters]`` are the config's parts' fields by their keyword names, ``[wire]`` its
+    wire, the top level its scale and seed; the history ``out/run.h5``."""
+    from engine.experiments.config import CONFIGS
+
     kw = params.model_dump(exclude_none=True)
     law = cfg.wire.wire_law()
     kw["wire"] = law is not None
@@ -220,7 +232,8 @@ def run_config(cfg: RunConfig, params: BaseModel, out: Path, progress=True):
         kw["wire_law"] = law
         kw["neighbour_contact"] = cfg.wire.neighbour_contact
     scale = _default_scale(cfg.test) if cfg.scale is None else cfg.scale
-    return fn(scale, seed=cfg.seed, history=str(out / "run.h5"), progress=progress, **kw)
+    return CONFIGS[cfg.test].from_kwargs(scale=scale, seed=cfg.seed, history=str(out / "run.h5"),
+                                         progress=progress, **kw)
 
 
 # ---------------------------------------------------------------- outputs of a run

@@ -123,12 +123,12 @@ def case(*, name, wire, k, seed, runs_dir, scale=1.0, **params) -> dict:
     """One cylinder triaxial run of the study; its scalars (q, its sand and wire parts at
     :data:`STRAINS`, the state at the start of the loading, the wire–sand sliding, the
     solver's figures)."""
-    from engine import laws
     from engine.experiments import cylinder_triaxial
+    from engine.experiments.config import wire_spec
     from workbench.campaign import not_interrupted
 
     os.makedirs(runs_dir, exist_ok=True)
-    law = laws.wire_law(wire, stiffness=k)
+    law = wire_spec(wire, k).to_law()
     kw = {n: v for n, v in params.items() if v is not None}
     if wire == "none":
         kw.pop("wire_prestrain", None)

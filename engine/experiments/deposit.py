@@ -15,7 +15,7 @@ from ..prep import Box, Cylinder, paper_sample
 from ..prep.samples import Sample
 from ..prep.relax import kinetic_energy
 from ..scene import Scene
-from .params import check_args
+from .config import DepositConfig
 from .common import (RestCheckpoint, RestResult, check_bool, check_scale, deposit_laws, finish,
                      rest_run, rest_summary, run_identity, run_meta, sample_identity,
                      solver_choice, wire_before_after, wire_law_or_default)
@@ -118,19 +118,20 @@ def gravity_deposit(scale: float = 0.05, *, sample: str | Sample = "slope", wire
     identity = run_identity(dict(locals(), sample=sample_identity(sample),
                                  test="gravity_deposit"))
     cfg = _checked(SimpleNamespace(**locals()))
-    ckpt = RestCheckpoint(history, checkpoint_every, record_every, identity)
-    cfg.resume = check_bool("resume", resume)
+    ckpt = RestCheckpoint(cfg.history, cfg.checkpoint_every, cfg.record_every, identity)
+    cfg.resume = check_bool("resume", cfg.resume)
     smp, cfg.law = _sample(cfg)
     model, state, sand, ids = _in_mould(smp, cfg)
     chains0 = wire_chains(model, state) if cfg.wire else []
     z0 = state.position[sand, 2].copy()
     done = rest_run(model, state, sand, lambda m, s: kinetic_energy(m, s, sand), cfg,
                     desc="gravity deposit", checkpoint=ckpt, record_start=True, meta=run_meta(
-                        "gravity_deposit", steps, scale=cfg.scale, seed=seed, sample=smp.name,
-                        wire=cfg.wire, wire_density=smp.wire_density, wire_law=cfg.law,
-                        neighbour_contact=neighbour_contact, dt=dt, theta=theta, tol=tol,
-                        max_iter=max_iter, mu=mu, mu_wall=mu_wall, mu_wire=mu_wire,
-                        steps=steps, ke_fraction=ke_fraction))
+                        "gravity_deposit", cfg.steps, scale=cfg.scale, seed=cfg.seed,
+                        sample=smp.name, wire=cfg.wire, wire_density=smp.wire_density,
+                        wire_law=cfg.law, neighbour_contact=cfg.neighbour_contact, dt=cfg.dt,
+                        theta=cfg.theta, tol=cfg.tol, max_iter=cfg.max_iter, mu=cfg.mu,
+                        mu_wall=cfg.mu_wall, mu_wire=cfg.mu_wire, steps=cfg.steps,
+                        ke_fraction=cfg.ke_fraction))
     state = done.state
     chains1 = wire_chains(model, state) if cfg.wire else []
     res = DepositResult(
@@ -142,16 +143,17 @@ def gravity_deposit(scale: float = 0.05, *, sample: str | Sample = "slope", wire
         slack_share=float(np.mean(state.links.tension <= 0.0)) if model.n_links else math.nan,
         weight=float(model.body_mass[ids].sum() * G), at_rest=done.at_rest,
         history=done.hist.path, params=_params(cfg, smp))
-    return finish(res, done.stages, max_nonconverged)
+    return finish(res, done.stages, cfg.max_nonconverged)
 
 
 def _checked(cfg):
-    """The arguments checked (:func:`check_args`; a :class:`Sample` given against ``wire``
-    and ``wire_density``, ``wire`` then the sample's), the scale and solver choice
-    resolved; ``cfg.given``: a sample was given."""
+    """The arguments checked and turned into the test's config (``cfg.config``,
+    :class:`~engine.experiments.config.DepositConfig`; a :class:`Sample` given against
+    ``wire`` and ``wire_density``, ``wire`` then the sample's), the run's values from it,
+    the scale and solver choice resolved; ``cfg.given``: a sample was given."""
     sample = cfg.sample
     cfg.given = isinstance(sample, Sample)
-    args = vars(cfg).copy()
+    args = {k: v for k, v in vars(cfg).items() if k in DepositConfig.keywords()}
     if cfg.given:
         if cfg.wire_density is not None:
             raise ValueError("gravity_deposit: wire_density builds the deposit's own sample; "
@@ -160,8 +162,10 @@ def _checked(cfg):
             raise ValueError(f"gravity_deposit: wire = False but the sample has a wire of "
                              f"{sample.n_beads} beads; give a sample built with wire=False")
         args["sample"] = sample.name if sample.name in SAMPLES else "slope"  # (checked below)
-        cfg.wire = bool(sample.wire)
-    check_args("gravity_deposit", args)
+        cfg.wire = args["wire"] = bool(sample.wire)
+    config = DepositConfig.from_kwargs(**args)     # the arguments checked
+    vars(cfg).update({k: v for k, v in config.kwargs().items() if k != "sample"},
+                     config=config)
     cfg.scale = check_scale(cfg.scale)
     cfg.anderson, cfg.hot_sweeps = solver_choice(cfg.anderson, cfg.hot_sweeps)
     return cfg
@@ -211,4 +215,5 @@ def _params(cfg, smp) -> dict:
                 max_iter=cfg.max_iter, relax=cfg.relax, anderson=cfg.anderson,
                 threads=cfg.threads, hot_sweeps=cfg.hot_sweeps, mu=cfg.mu, mu_wall=cfg.mu_wall,
                 mu_wire=cfg.mu_wire, seed=cfg.seed, n_sand=int(smp.sand_radii.size),
-                n_beads=smp.n_beads, friction_angle_deg=math.degrees(math.atan(cfg.mu)))
+                n_beads=smp.n_beads, friction_angle_deg=math.degrees(math.atan(cfg.mu)),
+                config=cfg.config.model_dump(mode="json"))

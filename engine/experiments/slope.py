@@ -14,7 +14,7 @@ from ..analysis.wire import wire_chains
 from ..prep import Cylinder, slope_sample
 from ..prep.relax import kinetic_energy
 from ..scene import Scene
-from .params import check_args
+from .config import SlopeConfig
 from .start import start_of
 from .common import (RestCheckpoint, RestResult, check_bool, check_scale, deposit_laws,
                      finish, rest_run, rest_summary, run_identity, run_meta, sample_identity,
@@ -125,14 +125,16 @@ def slope_deposit(scale: float = 0.02, *, sample=None, wire: bool = True,
     fits sand with a line, TexSol(1) with a cubic and TexSol(2) with the 8th degree, so a
     higher degree finds a steeper slope on the same heap (docs/paper.md, Fig. 10).
     """
-    check_args("slope_deposit", locals())
-    identity = run_identity(dict(locals(), sample=sample_identity(sample), test="slope_deposit"))
-    cfg = SimpleNamespace(**locals())
-    cfg.scale = check_scale(scale)
-    cfg.anderson, cfg.hot_sweeps = solver_choice(anderson, hot_sweeps)
-    ckpt = RestCheckpoint(history, checkpoint_every, record_every, identity)
-    cfg.resume = check_bool("resume", resume)
-    cfg.fit_degree = check_fit_degree(fit_degree, wire, PROFILE_BINS)
+    args = dict(locals())
+    config = SlopeConfig.from_kwargs(**args)      # the arguments checked
+    identity = run_identity(dict(args, sample=sample_identity(sample), test="slope_deposit"))
+    cfg = SimpleNamespace(**config.kwargs(), config=config)
+    cfg.sample = sample                 # (an object, which the config does not hold)
+    cfg.scale = check_scale(cfg.scale)
+    cfg.anderson, cfg.hot_sweeps = solver_choice(cfg.anderson, cfg.hot_sweeps)
+    ckpt = RestCheckpoint(cfg.history, cfg.checkpoint_every, cfg.record_every, identity)
+    cfg.resume = check_bool("resume", cfg.resume)
+    cfg.fit_degree = check_fit_degree(fit_degree, cfg.wire, PROFILE_BINS)  # (2.0 refused)
     st, cfg.law = _slope_start(cfg)
     heap = _heap(st, cfg)
     model, sand = heap.model, heap.sand
@@ -144,13 +146,14 @@ def slope_deposit(scale: float = 0.02, *, sample=None, wire: bool = True,
 
     done = rest_run(model, heap.state, heap.ids, energy, cfg, desc="slope deposit",
                     checkpoint=ckpt, meta=run_meta(
-                        "slope_deposit", steps, scale=cfg.scale, seed=seed, sample=st.source,
-                        wire=st.has_wire, wire_density=wire_density, wire_law=cfg.law,
-                        neighbour_contact=neighbour_contact, dt=dt, theta=theta, tol=tol,
-                        max_iter=max_iter, mu=mu, mu_floor=mu_floor, mu_wire=mu_wire,
-                        steps=steps, ke_fraction=ke_fraction))
+                        "slope_deposit", cfg.steps, scale=cfg.scale, seed=cfg.seed,
+                        sample=st.source, wire=st.has_wire, wire_density=cfg.wire_density,
+                        wire_law=cfg.law, neighbour_contact=cfg.neighbour_contact, dt=cfg.dt,
+                        theta=cfg.theta, tol=cfg.tol, max_iter=cfg.max_iter, mu=cfg.mu,
+                        mu_floor=cfg.mu_floor, mu_wire=cfg.mu_wire, steps=cfg.steps,
+                        ke_fraction=cfg.ke_fraction))
     res = _slope_result(heap, done, cfg, st, chains0)
-    return finish(res, done.stages, max_nonconverged)
+    return finish(res, done.stages, cfg.max_nonconverged)
 
 
 def _slope_start(cfg):
@@ -255,4 +258,5 @@ def _slope_result(heap, done, cfg, st, chains0) -> SlopeResult:
                     mu_floor=cfg.mu_floor, mu_wire=cfg.mu_wire, seed=cfg.seed,
                     n_sand=int(st.sand_radii.size), n_beads=st.n_beads,
                     friction_angle_deg=math.degrees(math.atan(cfg.mu)),
-                    profile_error=profile_error, lost_particles=lost))
+                    profile_error=profile_error, lost_particles=lost,
+                    config=cfg.config.model_dump(mode="json")))

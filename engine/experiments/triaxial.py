@@ -54,7 +54,7 @@ from ..schedules import FollowSchedules, Ramp, Servo
 from ..trigger import Updater
 from ..prep import Box, Cylinder, box_sample, cylinder_sample
 from ..scene import Scene
-from .params import check_args
+from .config import CONFIGS
 from .start import check_preparation, start_of
 from .common import (ConfinementError, Recorder, Stages, TestResult, check_scale,
                      choose_rate, finish, history_writer, run_meta, solver_choice,
@@ -188,7 +188,7 @@ def cylinder_triaxial(scale: float = 0.05, *, sample=None, preparation: str = "g
     rig = _cylinder_rig(st, cfg)
     _loading_rate(cfg, rig)
     rec, hist, stages = _recording(rig, cfg, "cylinder_triaxial", CYLINDER_UNITS,
-                                   _cylinder_values(rig), confine_every)
+                                   _cylinder_values(rig), cfg.confine_every)
     try:
         cfg.iso_reached = _cylinder_isotropic(stages, rig, cfg)
         _loading(stages, rig, cfg)
@@ -199,7 +199,7 @@ def cylinder_triaxial(scale: float = 0.05, *, sample=None, preparation: str = "g
         stages.close()
         hist.close()
     res = _cylinder_result(rig, cfg, rec, deposit)
-    return finish(res, stages, max_nonconverged)
+    return finish(res, stages, cfg.max_nonconverged)
 
 
 #: The test's arguments the paper preparation's deposit takes as they are.
@@ -417,9 +417,9 @@ def box_triaxial(scale: float = 0.05, *, sample=None, preparation: str = "geomet
     rig = _box_rig(st, cfg)
     _loading_rate(cfg, rig)
     rec, hist, stages = _recording(rig, cfg, "box_triaxial", BOX_UNITS, _box_values(rig),
-                                   check_every)
+                                   cfg.check_every)
     try:
-        cfg.iso_reached = _isotropic(stages, rig, cfg, check_every, _box_measure(rig),
+        cfg.iso_reached = _isotropic(stages, rig, cfg, cfg.check_every, _box_measure(rig),
                                      [rig.faces])
         _loading(stages, rig, cfg)
         if not stages.interrupted:
@@ -429,16 +429,18 @@ def box_triaxial(scale: float = 0.05, *, sample=None, preparation: str = "geomet
         stages.close()
         hist.close()
     res = _box_result(rig, cfg, rec, deposit)
-    return finish(res, stages, max_nonconverged)
+    return finish(res, stages, cfg.max_nonconverged)
 
 
 # -- the stages of both tests -----------------------------------------------------------------
 def _config(test, args, least_mu=0.0, why="") -> SimpleNamespace:
-    """A test's arguments (its ``locals()`` on entry) checked, with the scale and the solver
-    choice resolved, ``p`` and ``eps_max`` as floats, ``compaction_mu`` checked to be at
+    """A test's arguments (its ``locals()`` on entry) turned into its config
+    (:mod:`engine.experiments.config`, ``cfg.config``) and run from it: its keywords, with
+    the scale and the solver choice resolved, ``p`` and ``eps_max`` as floats, ``compaction_mu`` checked to be at
     least ``least_mu`` (``why``: the reason, for the message)."""
-    check_args(test, args)
-    cfg = SimpleNamespace(**args)
+    config = CONFIGS[test].from_kwargs(**args)
+    cfg = SimpleNamespace(**config.kwargs(), config=config)
+    cfg.sample = args["sample"]                 # (an object, which the config does not hold)
     cfg.scale = check_scale(cfg.scale)
     cfg.anderson, cfg.hot_sweeps = solver_choice(cfg.anderson, cfg.hot_sweeps)
     cfg.p, cfg.eps_max = float(cfg.pressure), float(cfg.axial_strain)
@@ -639,7 +641,7 @@ def _params(rig, cfg, deposit) -> dict:
                 hot_sweeps=cfg.hot_sweeps, mu=cfg.mu, mu_wall=cfg.mu_wall,
                 mu_wire=cfg.mu_wire, compaction_mu=cfg.compaction_mu, seed=cfg.seed,
                 n_sand=int(st.sand_radii.size), n_beads=st.n_beads, d_mean=rig.d_mean,
-                iso_reached=cfg.iso_reached)
+                iso_reached=cfg.iso_reached, config=cfg.config.model_dump(mode="json"))
 
 
 def _insert_after(d: dict, key: str, **new) -> dict:

@@ -561,3 +561,18 @@ def test_the_committed_runs_rescore_to_the_committed_claims(stem, scale):
     ids = [c["id"] for c in committed]
     claims = [c.__dict__ for c in evaluate(curves, rows, SCALES[scale]) if c.id in ids]
     assert claims == committed
+
+
+def test_every_report_case_validates_through_its_tests_config():
+    """``nscd paper`` checks its cases through the tests' configs before anything runs
+    (issue 32 §1): every case of every scale is accepted, a bad one refused on one line."""
+    from workbench.paper.registry import cases_for
+    from workbench.paper.runner import check_cases
+    from workbench.paper.scales import SCALES
+
+    for scale in SCALES.values():
+        check_cases(cases_for(scale), {"runs_dir": "runs", "threads": 2})
+    bad = dict(cases_for(SCALES["tiny"])[0], dt=-1.0)
+    with pytest.raises(ValueError) as e:
+        check_cases([bad])
+    assert "\n" not in str(e.value) and "dt = -1.0: must be a number in (0, 0.01]" in str(e.value)

@@ -45,20 +45,11 @@ def scalars_of(result) -> dict:
 def _law(wire, k, prestrain=None, max_tension=None):
     """(has a wire, its law) of a sweep case: ``wire`` a law's name
     (:data:`engine.laws.WIRE_LAWS`, or "none"; True and False for "elastic" and "none"),
-    ``k`` its stiffness [N], and the law's ``prestrain`` and ``max_tension``."""
-    from engine import laws
+    ``k`` its stiffness [N], and the law's ``prestrain`` and ``max_tension``
+    (:func:`engine.experiments.config.wire_spec`)."""
+    from engine.experiments.config import wire_spec
 
-    if wire is True:
-        wire = "elastic"
-    elif wire is False or wire is None:
-        wire = "none"
-    if k is not None:
-        try:
-            k = float(k)
-        except (TypeError, ValueError):
-            raise ValueError(f"k must be the elastic wire's stiffness in N (> 0), got {k!r}") \
-                from None
-    law = laws.wire_law(wire, stiffness=k, prestrain=prestrain, max_tension=max_tension)
+    law = wire_spec(wire, k, prestrain, max_tension).to_law()
     return law is not None, law
 
 
@@ -102,7 +93,8 @@ def check_paper_cases(name, cases, fixed) -> None:
     """Refuse, before anything runs, a case of a paper test with a parameter the test does
     not take, a wire it cannot build, a bad scale or solver options out of range (naming
     the case, the field and the allowed values): such a case would fail the same way on
-    every attempt."""
+    every attempt.  Each case is validated by the test's config
+    (:meth:`engine.experiments.config.TestConfig.from_kwargs`, through ``check_args``)."""
     from engine import experiments
     from engine.experiments.common import check_scale
     from engine.experiments.params import check_args

@@ -13,7 +13,7 @@ from pathlib import Path
 
 from .drawing import make_figures, series, snapshots
 from .registry import cases_for, claims_of, evaluate, figures_of, select_claims
-from .runner import paper_case, read_curves
+from .runner import check_cases, paper_case, read_curves
 from .scales import PAPER_VALUES, _fmt_k, fig10_seeds, scale_named
 from .stats import _g, _H_of, h_fit
 
@@ -79,6 +79,7 @@ def build_report(out="out/paper", scale="default", *, scheduler=None, progress=T
     if threads is not None:
         fixed["threads"] = threads
     cases = cases_for(scale, only=chosen)
+    check_cases(cases, fixed)        # each through its test's config, before any runs
     names = _run_names(runs, cases, reuse_only)
     if reuse_only or names is not None:
         table, not_run = _run_some(cases, names, out, scheduler, fixed, progress)

@@ -7,12 +7,12 @@ import numpy as np
 
 
 def _law(wire, k):
-    from engine import laws
+    """(has a wire, its law) of a case (:func:`engine.experiments.config.wire_spec`)."""
+    from engine.experiments.config import wire_spec
 
     if wire == "none":                       # (the slope's sand cases carry k = 1: unused)
         return False, None
-    law = laws.wire_law(wire, stiffness=None if k is None else float(k))
-    return True, law
+    return True, wire_spec(wire, k).to_law()
 
 
 def _write_curves(path, arrays: dict):
@@ -101,6 +101,25 @@ def _test_kwargs(test, wire, k, seed, history, checkpoint_every, params) -> dict
         # when the report is built again
         kw.update(checkpoint_every=checkpoint_every, resume=True)
     return kw
+
+
+def check_cases(cases, fixed=None) -> None:
+    """Validate every case of a report through its test's config
+    (:meth:`engine.experiments.config.TestConfig.from_kwargs`) before anything runs: a case
+    with a parameter out of range or a wire its law cannot have is refused, on one line
+    naming the case, the field, its value and the allowed range."""
+    from engine.experiments.config import CONFIGS
+
+    for c in cases:
+        p = dict(c, **(fixed or {}))
+        test, name, wire, k = p.pop("test"), p.pop("name"), p.pop("wire"), p.pop("k", None)
+        seed, runs_dir = p.pop("seed", 0), p.pop("runs_dir", ".")
+        try:
+            kw = _test_kwargs(test, wire, k, seed, os.path.join(runs_dir, f"{name}.h5"),
+                              p.pop("checkpoint_every", 60), p)
+            CONFIGS[test].from_kwargs(**kw)
+        except (ValueError, KeyError) as e:
+            raise ValueError(f"paper case {name!r}: {e}") from None
 
 
 def _deposit_curves(res, test, name) -> dict:

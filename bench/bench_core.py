@@ -32,6 +32,7 @@ import subprocess
 import sys
 import tempfile
 import time
+from functools import partial
 from pathlib import Path
 
 _T_START = time.perf_counter()
@@ -50,7 +51,7 @@ from engine import Scene, laws, step  # noqa: E402
 from engine.contact import detect  # noqa: E402
 from engine.integrator import free_velocity, update  # noqa: E402
 from engine.solver import nlgs  # noqa: E402
-from engine.solver.nlgs import solve, sweep  # noqa: E402
+from engine.solver.nlgs import Bodies, Contacts, solve, sweep  # noqa: E402
 import record  # noqa: E402
 from yardstick import body_inverses, yard_sweep  # noqa: E402
 
@@ -140,7 +141,8 @@ def _sweep_args(model, state):
 
 
 def _ours_args(model, state):
-    """Contact arguments of ``nlgs.sweep`` (it also takes the sphere–sphere count n_pair)."""
+    """Contact arguments of ``nlgs.sweep`` (it also takes the sphere–sphere count n_pair):
+    (n, n_pair, then the fields of its ``Contacts`` tuple but the impulses)."""
     c = state.contacts_buf
     return (c.count, c.n_pair) + _sweep_args(model, state)[1:]
 
@@ -163,7 +165,8 @@ def warm_up() -> dict:
     args = _sweep_args(model, state)
     oargs = _ours_args(model, state)
     im, ii = body_inverses(model.body_dyn)
-    sweep(*oargs, c.impulse.copy(), model.body_dyn, state.vel6.copy(), model.options.relax)
+    sweep(*oargs[:2], Contacts(*oargs[2:], c.impulse.copy()),
+          Bodies(model.body_dyn, state.vel6.copy()), model.options.relax)
     yard_sweep(*args, c.impulse.copy(), im, ii, state.vel6.copy())
     t4 = time.perf_counter()
     return dict(scene_compile_s=t1 - t0, first_step_s=t2 - t1, next_60_steps_s=t3 - t2,
@@ -234,7 +237,7 @@ def time_sweeps(model, state, reps: int = 11, target_s: float = 0.03) -> dict:
 
     # same answer? one sweep each from the same state
     va, pa = v0.copy(), p0.copy()
-    num_a, den_a = sweep(*oargs, pa, bd, va, relax)
+    num_a, den_a = sweep(*oargs[:2], Contacts(*oargs[2:], pa), Bodies(bd, va), relax)
     vb, pb = v0.copy(), p0.copy()
     num_b, den_b = yard_sweep(*args, pb, im, ii, vb)
     check = dict(max_rel_diff_impulse=float(np.abs(pa[:n] - pb[:n]).max() / max(np.abs(pa[:n]).max(), 1e-300)),
@@ -243,24 +246,27 @@ def time_sweeps(model, state, reps: int = 11, target_s: float = 0.03) -> dict:
 
     # sweeps per repetition so that one repetition lasts about target_s
     t = time.perf_counter()
-    sweep(*oargs, pa, bd, va, relax)
+    sweep(*oargs[:2], Contacts(*oargs[2:], pa), Bodies(bd, va), relax)
     one = max(time.perf_counter() - t, 1e-7)
     k = max(3, int(target_s / one))
 
-    def timed(one_sweep):
-        """k sweeps from the same starting copies: (wall, cpu) seconds."""
+    def timed(make):
+        """k sweeps from the same starting copies: (wall, cpu) seconds; ``make(p, v)``
+        returns one sweep on the copies p, v (its argument tuples built before the clock)."""
         v, p = v0.copy(), p0.copy()
+        one_sweep = make(p, v)
         c0 = time.thread_time()
         t0 = time.perf_counter()
         for _ in range(k):
-            one_sweep(p, v)
+            one_sweep()
         return time.perf_counter() - t0, time.thread_time() - c0
 
     def run_ours():
-        return timed(lambda p, v: sweep(*oargs, p, bd, v, relax))
+        return timed(lambda p, v: partial(sweep, *oargs[:2], Contacts(*oargs[2:], p),
+                                          Bodies(bd, v), relax))
 
     def run_yard():
-        return timed(lambda p, v: yard_sweep(*args, p, im, ii, v))
+        return timed(lambda p, v: partial(yard_sweep, *args, p, im, ii, v))
 
     run_ours()  # warm caches and branch predictors
     run_yard()

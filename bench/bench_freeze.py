@@ -66,12 +66,13 @@ def solve_counting(model, state, factor, hot_sweeps, max_iter):
     hbounds = np.empty(1, np.int64)
     updates = 0
     res = np.inf
+    C = K.Contacts(c.i, c.j, c.frame, c.w, c.gterm, c.mu, c.ri, c.rj, c.impulse)
+    B = K.Bodies(model.body_dyn, s.vel6)
+    L = K.Links(model.link_i, model.link_j, s.link_normal, wl, model.link_unilateral,
+                s.link_impulse, model.link_order)
     for it in range(max_iter):
-        num, den = K._full(n, c.n_pair, q, c.i, c.j, c.frame, c.w, c.gterm, c.mu, c.ri, c.rj,
-                           c.impulse, model.body_dyn, s.vel6, 1.0, False, True)
-        res = K.links_then_residual(num, den, nl, model.link_i, model.link_j, s.link_normal,
-                                    wl, model.link_unilateral, s.link_impulse, model.body_dyn,
-                                    s.vel6, 1.0, model.link_order)
+        num, den = K._full(n, c.n_pair, q, C, B, 1.0, False, True)
+        res = K.links_then_residual(num, den, nl, L, B, 1.0)
         updates += n
         if res < o.tol:
             return dict(full_sweeps=it + 1, updates=updates, residual=float(res),
@@ -79,9 +80,7 @@ def solve_counting(model, state, factor, hot_sweeps, max_iter):
         if hot_sweeps:
             m = K.hot_list(n, q, factor, hot, bounds, hbounds)
             updates += hot_sweeps * int(m)
-            K.resweep_hot(n, q, factor, hot, bounds, hbounds, hot_sweeps, c.i, c.j, c.frame,
-                          c.w, c.gterm, c.mu, c.ri, c.rj, c.impulse, model.body_dyn, s.vel6,
-                          1.0, False)
+            K.resweep_hot(n, q, factor, hot, bounds, hbounds, hot_sweeps, C, B, 1.0, False)
     return dict(full_sweeps=max_iter, updates=updates, residual=float(res), converged=False,
                 contacts=int(n))
 

@@ -118,14 +118,15 @@ def kernels_vs_yardstick(model, state, sweeps, reps):
             vel = v0.copy()
             imp = c.impulse
             imp[:n] = imp0
+            C = nlgs.Contacts(li, lj, c.frame, c.w, c.gterm, c.mu, c.ri, c.rj, imp)
+            B = nlgs.Bodies(body_dyn, vel)
             t = time.perf_counter()
             for _ in range(sweeps):
                 if name == "yardstick":
                     yard_sweep(n, li, lj, c.frame, c.w, c.gterm, c.mu, c.ri, c.rj, imp, inv_m,
                                inv_i, vel)
                 else:
-                    nlgs.sweep(n, c.n_pair, li, lj, c.frame, c.w, c.gterm, c.mu, c.ri, c.rj,
-                               imp, body_dyn, vel, 1.0)
+                    nlgs.sweep(n, c.n_pair, C, B, 1.0)
             best[name] = min(best[name], (time.perf_counter() - t) / (sweeps * n) * 1e9)
     c.impulse[:n] = imp0
     return dict(yardstick_ns_per_contact_sweep=best["yardstick"],

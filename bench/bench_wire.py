@@ -55,7 +55,8 @@ from engine import Scene, laws, step  # noqa: E402
 from engine.contact import detect  # noqa: E402
 from engine.integrator import free_velocity, update  # noqa: E402
 from engine.solver import nlgs  # noqa: E402
-from engine.solver.nlgs import iterate, link_prepare, link_sweep, solve, sweep  # noqa: E402
+from engine.solver.nlgs import (Bodies, Contacts, Links, iterate, link_prepare,  # noqa: E402
+                                link_sweep, solve, sweep)
 from engine.validation import beaded_string  # noqa: E402
 
 #: 1. the long wire of the link-sweep timing: 1 000 arcs of 20 links hanging between supports
@@ -89,6 +90,23 @@ QUICK = dict(link=dict(n_links=2000, prep_steps=3, reps=5),
 # helpers
 # ---------------------------------------------------------------------------------------
 _ITERATE_ARGS = tuple(inspect.signature(iterate.py_func).parameters)
+#: The flat names under which the captured arguments keep the fields of ``iterate``'s named
+#: tuples (C: Contacts, B: Bodies, L: Links).
+_FLAT = dict(C=("c_i", "c_j", "frame", "w", "gterm", "mu", "ri", "rj", "impulse"),
+             B=("body_dyn", "vel6"),
+             L=("link_i", "link_j", "l_normal", "wl", "l_unilateral", "l_impulse", "l_order"))
+_TUPLES = dict(C=Contacts, B=Bodies, L=Links)
+
+
+def _flat_args(args) -> dict:
+    """``iterate``'s positional arguments as a dict of flat names (the tuples' fields)."""
+    out = {}
+    for k, v in zip(_ITERATE_ARGS, args):
+        if k in _FLAT:
+            out.update(zip(_FLAT[k], v))
+        else:
+            out[k] = v
+    return out
 
 
 class CaptureIterate:
@@ -107,7 +125,7 @@ class CaptureIterate:
         def spy(*args):
             out = real(*args)
             self.args = {k: (v.copy() if isinstance(v, np.ndarray) else v)
-                         for k, v in zip(_ITERATE_ARGS, args)}
+                         for k, v in _flat_args(args).items()}
             self.result = out
             self.calls += 1
             return out
@@ -123,19 +141,18 @@ class CaptureIterate:
 def _iter_call(a: dict, **over):
     """Positional argument tuple of ``iterate`` from a captured dict, with overrides."""
     d = dict(a, **over)
-    return tuple(d[k] for k in _ITERATE_ARGS)
+    return tuple(_TUPLES[k](*(d[f] for f in _FLAT[k])) if k in _FLAT else d[k]
+                 for k in _ITERATE_ARGS)
 
 
 @njit(cache=True)
-def bare_sweeps(k, n, n_pair, c_i, c_j, frame, w, gterm, mu, ri, rj, impulse, body_dyn, vel6,
-                relax):
+def bare_sweeps(k, n, n_pair, C, B, relax):
     """``k`` contact sweeps back to back in compiled code (what ``iterate`` does with nl = 0,
     less its residual and tolerance test)."""
     num = 0.0
     den = 0.0
     for _ in range(k):
-        a, b = sweep(n, n_pair, c_i, c_j, frame, w, gterm, mu, ri, rj, impulse, body_dyn, vel6,
-                     relax)
+        a, b = sweep(n, n_pair, C, B, relax)
         num += a
         den += b
     return num, den
@@ -298,8 +315,9 @@ def _link_case(a: dict, along_wire: bool = False):
 
     def run(c, k):
         p, v = c
+        L, B = Links(li, lj, nrm, wl, uni, p, lorder), Bodies(bd, v)
         for _ in range(k):
-            link_sweep(nl, li, lj, nrm, wl, uni, p, bd, v, relax, lorder)
+            link_sweep(nl, L, B, relax)
 
     return nl, fresh, run
 
@@ -315,8 +333,9 @@ def _contact_case(a: dict):
 
     def run(c, k):
         p, v = c
+        C, B = Contacts(*args[2:], p), Bodies(bd, v)
         for _ in range(k):
-            sweep(*args, p, bd, v, relax)
+            sweep(*args[:2], C, B, relax)
 
     return n, fresh, run
 
@@ -643,7 +662,7 @@ def bench_no_wire(p: dict, sand: dict, wired: dict) -> dict:
 
         def run(c, k):
             imp, v = c
-            bare_sweeps(k, *cargs, imp, bd, v, relax)
+            bare_sweeps(k, *cargs[:2], Contacts(*cargs[2:], imp), Bodies(bd, v), relax)
 
         return n, fresh, run
 

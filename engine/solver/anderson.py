@@ -35,17 +35,30 @@ group by group in the race-free phases of the parallel sweep
 loops, bit for bit.
 
 Work arrays are kept in :class:`Workspace` (grown on demand, never shrunk), so a step
-allocates nothing: m × (3 n_contacts + n_links) × 2 floats of history.
+allocates nothing: m × (3 n_contacts + n_links) × 2 floats of history.  The kernels take
+them as a :class:`History` named tuple, beside the sweep's
+:class:`~engine.solver.kernels.Contacts`, :class:`~engine.solver.kernels.Bodies` and
+:class:`~engine.solver.kernels.Links`.
 """
 from __future__ import annotations
+
+from collections import namedtuple
 
 import numpy as np
 from numba import njit, prange
 
 from ..stop import in_chunks
-from .local import project_disk
+from .local import project_disk, tension
 from .kernels import _apply, _apply_link, sweep_all
-from .parallel import phases, sweep_groups
+from .parallel import Groups, phases, sweep_groups
+
+#: The mixing's work arrays (:class:`Workspace`) as :func:`iterate_anderson` takes them:
+#: ``dg, df`` (m, cap, 3) and ``dgl, dfl`` (m, cap_l) the history columns ΔG, ΔF of the
+#: contacts and links; ``x, g, f`` (cap, 3) and ``xl, gl, fl`` (cap_l,) the iterate the
+#: last sweep started from, the previous sweep's result and the previous residual;
+#: ``gram, mat`` (m, m), ``rhs, gamma`` (m,) the normal equations; ``loop`` (8,) the
+#: loop's counters between two chunks of sweeps.
+History = namedtuple("History", "dg df dgl dfl x g f xl gl fl gram rhs mat gamma loop")
 
 #: Sweeps between two mixings.  A mixing costs about 1.3 sweeps on the 1 000-sphere
 #: deposit (a streaming pass over the history and a pass that moves the velocities); one
@@ -93,6 +106,11 @@ class Workspace:
         if not hasattr(self, "loop"):
             self.loop = np.zeros(8)  # the loop's counters between two chunks of sweeps
         return self
+
+    def history(self) -> History:
+        """The work arrays as :func:`iterate_anderson` takes them."""
+        return History(self.dg, self.df, self.dgl, self.dfl, self.x, self.g, self.f, self.xl,
+                       self.gl, self.fl, self.gram, self.rhs, self.mat, self.gamma, self.loop)
 
 
 @njit(cache=True)
@@ -197,10 +215,12 @@ def _copy_range(a0, a1, impulse, x):
 
 
 @njit(cache=True, inline="always")
-def _mix_range(a0, a1, k, gamma, dg, w, mu, frame, c_i, c_j, ri, rj, impulse, body_dyn, vel6,
-               x, guard):
-    """x ← Π(G(x) − ΔG γ) on contacts a0..a1, the body velocities moved by the change.
-    ``guard``: write mobile bodies only (a parallel group, :func:`engine.solver.nlgs._apply`)."""
+def _mix_range(a0, a1, k, gamma, dg, C, B, x, guard):
+    """x ← Π(G(x) − ΔG γ) on contacts a0..a1 of ``C``, the body velocities of ``B`` moved by
+    the change.  ``guard``: write mobile bodies only (a parallel group,
+    :func:`engine.solver.kernels._apply`)."""
+    c_i, c_j, frame, w, _, mu, ri, rj, impulse = C
+    body_dyn, vel6 = B
     for a in range(a0, a1):
         pn = impulse[a, 0]
         pt = impulse[a, 1]
@@ -278,54 +298,52 @@ def _copy_chunks(T, n, impulse, x):
 
 
 @njit(cache=True, parallel=True)
-def _mix_phase(first, count, stride, start, k, gamma, dg, w, mu, frame, c_i, c_j, ri, rj,
-               impulse, body_dyn, vel6, x):
+def _mix_phase(first, count, stride, start, k, gamma, dg, C, B, x):
     """The mixing update of groups first, first + stride, ... at once, one per thread."""
     for q in prange(count):
         gi = first + q * stride
-        _mix_range(start[gi], start[gi + 1], k, gamma, dg, w, mu, frame, c_i, c_j, ri, rj,
-                   impulse, body_dyn, vel6, x, True)
+        _mix_range(start[gi], start[gi + 1], k, gamma, dg, C, B, x, True)
 
 
 @njit(cache=True)
-def _mix_groups(par, T, start, k, gamma, dg, w, mu, frame, c_i, c_j, ri, rj, impulse,
-                body_dyn, vel6, x):
+def _mix_groups(par, T, start, k, gamma, dg, C, B, x):
     """The mixing update on the contact groups of :func:`engine.solver.parallel.partition`,
     in the phases of its sweep (no two threads write the same body); each phase on the
     threads when ``par``, else its groups in turn (the same result)."""
     ng = 2 * T
     for first, count, stride in phases(T):
         if par and count > 1:
-            _mix_phase(first, count, stride, start, k, gamma, dg, w, mu, frame, c_i, c_j, ri,
-                       rj, impulse, body_dyn, vel6, x)
+            _mix_phase(first, count, stride, start, k, gamma, dg, C, B, x)
         else:
             for q in range(count):
                 gi = first + q * stride
-                _mix_range(start[gi], start[gi + 1], k, gamma, dg, w, mu, frame, c_i, c_j, ri,
-                           rj, impulse, body_dyn, vel6, x, True)
-    _mix_range(start[ng - 1], start[ng], k, gamma, dg, w, mu, frame, c_i, c_j, ri, rj,
-               impulse, body_dyn, vel6, x, False)
+                _mix_range(start[gi], start[gi + 1], k, gamma, dg, C, B, x, True)
+    _mix_range(start[ng - 1], start[ng], k, gamma, dg, C, B, x, False)
 
 
 @njit(cache=True)
-def iterate_anderson(n, n_pair, c_i, c_j, frame, w, gterm, mu, ri, rj, impulse, body_dyn, vel6,
-                     relax, tol, max_iter, nl, link_i, link_j, l_normal, wl, l_unilateral,
-                     l_impulse, l_order, m, period, dg, df, dgl, dfl, x, g, f, xl, gl, fl, gram, rhs,
-                     mat, gamma, T, start, acc, min_par, mid, it0, it1, loop):
-    """:func:`engine.solver.nlgs.iterate` with Anderson mixing of depth ``m`` between
-    sweeps (module docstring).  ``T`` = 1: serial sweeps (:func:`engine.solver.nlgs.sweep_all`);
+def iterate_anderson(n, n_pair, nl, C, B, L, relax, tol, max_iter, m, period, H, T, G, min_par,
+                     it0, it1):
+    """:func:`engine.solver.kernels.iterate` (its first nine arguments) with Anderson mixing
+    of depth ``m`` every ``period`` sweeps (module docstring), on the work arrays ``H``
+    (:class:`History`).  ``T`` = 1: serial sweeps (:func:`engine.solver.kernels.sweep_all`);
     ``T`` > 1: the domain-decomposed sweeps of :func:`engine.solver.parallel.sweep_groups`
-    on contacts gathered by group (``start``, ``acc``: its group starts and Quad sums;
-    ``min_par``: its :data:`engine.solver.parallel.PARALLEL_SWEEP_MIN_CONTACTS`; ``mid``:
-    where each group's contacts touching an immobile body start).
+    on contacts gathered by group (``G``: its :class:`~engine.solver.parallel.Groups`;
+    ``min_par``: its :data:`engine.solver.parallel.PARALLEL_SWEEP_MIN_CONTACTS`).
 
     Sweeps ``it0`` to ``it1`` - 1 of the ``max_iter`` of the step: a call with ``it0`` > 0
-    goes on from the counters the previous one left in ``loop`` (8,) (the history columns
+    goes on from the counters the previous one left in ``H.loop`` (8,) (the history columns
     are in the work arrays), so chunks of sweeps give the result of one call, bit for bit
     (:func:`engine.stop.in_chunks`).
     Returns ``(iterations of this call, residual)``."""
     if n == 0 and nl == 0:
         return 0, 0.0
+    dg, df, dgl, dfl, x, g, f, xl, gl, fl, gram, rhs, mat, gamma, loop = H
+    w = C.w
+    impulse = C.impulse
+    body_dyn, vel6 = B
+    link_i, link_j, l_normal, wl, l_unilateral, l_impulse, _ = L
+    start = G.start
     # the passes on threads only where a pass of the sweep is (PARALLEL_SWEEP_MIN_CONTACTS)
     par = T > 1 and start[2 * T - 1] - start[0] >= min_par
     pg = np.zeros((T, m))  # per-chunk partial Gram rows and right-hand sides
@@ -354,13 +372,9 @@ def iterate_anderson(n, n_pair, c_i, c_j, frame, w, gterm, mu, ri, rj, impulse, 
     res = 0.0
     for it in range(it0, min(it1, max_iter)):
         if T > 1:
-            res = sweep_groups(T, start, mid, c_i, c_j, frame, w, gterm, mu, ri, rj, impulse,
-                               body_dyn, vel6, relax, nl, link_i, link_j, l_normal, wl,
-                               l_unilateral, l_impulse, l_order, acc, rhs[:0], min_par)
+            res = sweep_groups(T, G, nl, C, B, L, relax, rhs[:0], min_par)
         else:
-            res = sweep_all(n, n_pair, c_i, c_j, frame, w, gterm, mu, ri, rj, impulse, body_dyn,
-                            vel6, relax, nl, link_i, link_j, l_normal, wl, l_unilateral,
-                            l_impulse, l_order)
+            res = sweep_all(n, n_pair, nl, C, B, L, relax)
         if res < tol or it == max_iter - 1:
             return it + 1 - it0, res
         if res > RESTART_GROWTH * prev_res:
@@ -428,18 +442,16 @@ def iterate_anderson(n, n_pair, c_i, c_j, frame, w, gterm, mu, ri, rj, impulse, 
             continue
         # x <- Π(G(x) - ΔG γ), velocities moved by the change
         if T > 1:
-            _mix_groups(par, T, start, k, gamma, dg, w, mu, frame, c_i, c_j, ri, rj, impulse,
-                        body_dyn, vel6, x)
+            _mix_groups(par, T, start, k, gamma, dg, C, B, x)
         else:
-            _mix_range(0, n, k, gamma, dg, w, mu, frame, c_i, c_j, ri, rj, impulse, body_dyn,
-                       vel6, x, False)
+            _mix_range(0, n, k, gamma, dg, C, B, x, False)
         for l in range(nl):
             lam = l_impulse[l]
             if wl[l, 1] != 0.0:
                 for b in range(k):
                     lam -= gamma[b] * dgl[b, l]
-                if l_unilateral[l] != 0 and lam < 0.0:
-                    lam = 0.0
+                if l_unilateral[l] != 0:
+                    lam = tension(lam)
                 dl = lam - l_impulse[l]
                 if dl != 0.0:
                     _apply_link(link_i[l], link_j[l], dl, l_normal[l, 0], l_normal[l, 1],
@@ -459,44 +471,33 @@ def iterate_anderson(n, n_pair, c_i, c_j, frame, w, gterm, mu, ri, rj, impulse, 
 _NO_GROUPS = np.zeros(1, np.int64)
 
 
-def run_anderson(ws: Workspace, m, n, n_pair, ci, cj, frame, w, gterm, mu, ri, rj, impulse,
-                 body_dyn, vel6, relax, tol, max_iter, nl, link_i, link_j, l_normal, wl,
-                 l_unilateral, l_impulse, l_order, T=1, start=None, acc=None, min_par=0,
-                 mid=None, it0=0, it1=None):
+def run_anderson(ws: Workspace, m, n, n_pair, nl, C, B, L, relax, tol, max_iter, T=1, G=None,
+                 min_par=0, it0=0, it1=None):
     """Call :func:`iterate_anderson` with the buffers of ``ws`` (grown as needed); ``T``,
-    ``start``, ``acc``, ``min_par``, ``mid``: the grouped parallel sweep
+    ``G`` (:class:`~engine.solver.parallel.Groups`), ``min_par``: the grouped parallel sweep
     (:func:`engine.solver.parallel.iterate_parallel`); ``it0``, ``it1``: the sweeps of this
     call (default all ``max_iter``)."""
     ws.ensure(m, n, nl)
     if T == 1:
-        start = _NO_GROUPS
-        mid = _NO_GROUPS
-        acc = ws.acc
-    return iterate_anderson(n, n_pair, ci, cj, frame, w, gterm, mu, ri, rj, impulse, body_dyn,
-                            vel6, relax, tol, max_iter, nl, link_i, link_j, l_normal, wl,
-                            l_unilateral, l_impulse, l_order, m, PERIOD, ws.dg, ws.df, ws.dgl,
-                            ws.dfl, ws.x, ws.g, ws.f, ws.xl, ws.gl, ws.fl, ws.gram, ws.rhs, ws.mat,
-                            ws.gamma, T, start, acc, min_par, mid, int(it0),
-                            int(max_iter if it1 is None else it1), ws.loop)
+        G = Groups(_NO_GROUPS, _NO_GROUPS, ws.acc)
+    return iterate_anderson(n, n_pair, nl, C, B, L, relax, tol, max_iter, m, PERIOD,
+                            ws.history(), T, G, min_par, int(it0),
+                            int(max_iter if it1 is None else it1))
 
 
-def domain_mixer(ws: Workspace, m, max_iter, tol, nl, link_i, link_j, l_normal, wl,
-                 l_unilateral, l_impulse, l_order):
+def domain_mixer(ws: Workspace, m, max_iter, tol, nl, L):
     """The mixing of depth ``m`` as :func:`engine.solver.parallel.iterate_parallel` runs it
-    on its domains (its ``mix``): a function of the gathered contact arrays, the body rows
-    and the groups that runs :func:`run_anderson` in chunks (:func:`engine.stop.in_chunks`)
-    and returns (iterations, residual).  Kept here so that the parallel sweep needs nothing
-    of this module."""
-    def mix(T, n, g_i, g_j, g_frame, g_w, g_gterm, g_mu, g_ri, g_rj, g_imp, body_dyn, vel6,
-            relax, start, mid, acc, min_par):
+    on its domains (its ``mix``): a function of the gathered contacts, the bodies, the
+    groups and the parallel threshold that runs :func:`run_anderson` in chunks
+    (:func:`engine.stop.in_chunks`) and returns (iterations, residual).  Kept here so that
+    the parallel sweep needs nothing of this module."""
+    def mix(T, n, C, B, relax, G, min_par):
         return in_chunks(lambda done, m_: run_anderson(
-            ws, m, n, n, g_i, g_j, g_frame, g_w, g_gterm, g_mu, g_ri, g_rj, g_imp, body_dyn,
-            vel6, relax, tol, max_iter, nl, link_i, link_j, l_normal, wl, l_unilateral,
-            l_impulse, l_order, T, start, acc, min_par, mid, it0=done, it1=done + m_),
-            max_iter, tol, n + nl)
+            ws, m, n, n, nl, C, B, L, relax, tol, max_iter, T, G, min_par, it0=done,
+            it1=done + m_), max_iter, tol, n + nl)
 
     return mix
 
 
-__all__ = ["iterate_anderson", "run_anderson", "domain_mixer", "Workspace", "PERIOD",
+__all__ = ["iterate_anderson", "run_anderson", "domain_mixer", "Workspace", "History", "PERIOD",
            "RESTART_GROWTH", "STALL_MIXINGS"]

@@ -41,16 +41,27 @@ At its fixed point the chain solve and the link sweep satisfy the same equations
 converged impulses are the same (tested at tol 1e-10); the residual is the same Quad norm
 (the links' Σ(W Δλ)² and Σ(W λ)² added to the contacts').
 
-Kernels take plain contiguous arrays; the work arrays (size n_links) are allocated once
-per step by the caller.
+Kernels take plain contiguous arrays, the sweep's as the named tuples of
+:mod:`engine.solver.kernels` and the work arrays (size n_links, allocated once per step by
+the caller, :func:`chain_workspace`) as a :class:`ChainWork` one.
 """
 from __future__ import annotations
+
+from collections import namedtuple
 
 import numpy as np
 from numba import njit
 
 from ..model import DYN_INV_MASS
 from .kernels import _apply_link, _full, link_sweep, link_update, lstar, resweep_hot
+from .local import tension
+
+#: The chain solve's arrays (:func:`chain_workspace`): ``starts`` (nl + 1,) int64 and
+#: ``closed`` (nl,) int8 the chains (:func:`link_chains`); the work arrays of
+#: :func:`chain_sweep`, size n_links: ``d, e, rhs, lam`` the system's diagonal,
+#: off-diagonal, right side and answer, ``act`` (int8) the active set, ``z, cp, dp`` the
+#: solver's scratch, ``uf`` the free velocities u⁰, ``lp`` the previous round's answer.
+ChainWork = namedtuple("ChainWork", "starts closed d e rhs lam act z cp dp uf lp")
 
 
 #: A pivot below this fraction of its diagonal is singular (:func:`_thomas`).
@@ -223,11 +234,14 @@ def _length_terms(a, b, cyc, link_i, link_j, normal, wl, impulse, body_dyn, vel6
 
 
 @njit(cache=True)
-def chain_sweep(nc, starts, closed, link_i, link_j, normal, wl, unilateral, impulse, body_dyn,
-                vel6, relax, d, e, rhs, lam, act, z, cp, dp, uf, lp):
-    """Solve every chain exactly given the other impulses (module doc) and apply the
-    change to the beads; returns (Σ(W Δλ)², Σ(W λ)²) as
-    :func:`~engine.solver.nlgs.link_sweep` does."""
+def chain_sweep(nc, K, L, B, relax):
+    """Solve each of the ``nc`` chains of ``K`` (:class:`ChainWork`) exactly given the other
+    impulses (module doc) and apply the change to the beads of ``B``; returns
+    (Σ(W Δλ)², Σ(W λ)²) of the links ``L`` as :func:`~engine.solver.kernels.link_sweep`
+    does."""
+    starts, closed, d, e, rhs, lam, act, z, cp, dp, uf, lp = K
+    link_i, link_j, normal, wl, unilateral, impulse, _ = L
+    body_dyn, vel6 = B
     num = 0.0
     den = 0.0
     for c in range(nc):
@@ -329,8 +343,7 @@ def chain_sweep(nc, starts, closed, link_i, link_j, normal, wl, unilateral, impu
                               act, lam, uf, rhs)
         if singular:          # an undetermined tension: the plain Gauss–Seidel pass on it
             for l in range(a, b):
-                x, y = link_update(l, link_i, link_j, normal, wl, unilateral, impulse,
-                                   body_dyn, vel6, relax)
+                x, y = link_update(l, L, B, relax)
                 num += x
                 den += y
             continue
@@ -349,8 +362,8 @@ def chain_sweep(nc, starts, closed, link_i, link_j, normal, wl, unilateral, impu
             if abs(d[l] * new) <= ROUNDOFF * vmax:     # (W + c) λ: a velocity
                 new = 0.0
             new = lam0 + relax * (new - lam0)
-            if unilateral[l] != 0 and new < 0.0:
-                new = 0.0
+            if unilateral[l] != 0:
+                new = tension(new)
             dl = new - lam0
             impulse[l] = new
             _apply_link(link_i[l], link_j[l], dl, normal[l, 0], normal[l, 1], normal[l, 2],
@@ -368,24 +381,20 @@ CHAIN_SWEEPS = 30
 
 
 @njit(cache=True, inline="always")
-def _links(sweeps, nc, starts, closed, link_i, link_j, l_normal, wl, l_unilateral, l_impulse,
-           body_dyn, vel6, relax, l_order, d, e, rhs, lam, act, z, cp, dp, uf, lp):
+def _links(sweeps, nc, K, L, B, relax):
     """The links' part of a sweep: the chain solve for the step's first
     :data:`CHAIN_SWEEPS` sweeps, the plain link sweep after them; returns its Quad sums."""
     if sweeps < CHAIN_SWEEPS:
-        return chain_sweep(nc, starts, closed, link_i, link_j, l_normal, wl, l_unilateral,
-                           l_impulse, body_dyn, vel6, relax, d, e, rhs, lam, act, z, cp, dp,
-                           uf, lp)
-    return link_sweep(link_i.shape[0], link_i, link_j, l_normal, wl, l_unilateral, l_impulse,
-                      body_dyn, vel6, relax, l_order)
+        return chain_sweep(nc, K, L, B, relax)
+    return link_sweep(L.i.shape[0], L, B, relax)
 
 
 @njit(cache=True)
-def iterate_chains(n, n_pair, c_i, c_j, frame, w, gterm, mu, ri, rj, impulse, body_dyn, vel6,
-                   relax, tol, max_iter, link_i, link_j, l_normal, wl, l_unilateral, l_impulse,
-                   l_order, done, hot_sweeps, factor, q, hot, nc, starts, closed, d, e, rhs,
-                   lam, act, z, cp, dp, uf, lp):
-    """Sweep the contacts, then solve each chain (:func:`chain_sweep`), until the Quad
+def iterate_chains(n, n_pair, nc, C, B, L, K, relax, tol, max_iter, done, hot_sweeps, factor, q,
+                   hot):
+    """:func:`engine.solver.kernels.iterate`'s sweeps (its arguments ``n, n_pair, C, B, L``;
+    ``nc`` chains in ``K``, :func:`chain_workspace`): sweep the contacts, then solve each
+    chain (:func:`chain_sweep`), until the Quad
     residual (over both) is below ``tol`` or ``max_iter`` sweeps are done; after
     :data:`CHAIN_SWEEPS` sweeps of the step (``done`` counts those of earlier calls), the
     links are swept by the plain :func:`~engine.solver.nlgs.link_sweep` instead.  With
@@ -394,22 +403,15 @@ def iterate_chains(n, n_pair, c_i, c_j, frame, w, gterm, mu, ri, rj, impulse, bo
     arrays); the stopping test stays on the full sweeps.  Returns ``(iterations,
     residual)``."""
     if relax > 1.0:                       # the over-relaxed copy of the contact loops
-        return _chains_loop(n, n_pair, c_i, c_j, frame, w, gterm, mu, ri, rj, impulse,
-                            body_dyn, vel6, relax, tol, max_iter, link_i, link_j, l_normal,
-                            wl, l_unilateral, l_impulse, l_order, done, hot_sweeps, factor, q,
-                            hot, nc, starts, closed, d, e, rhs, lam, act, z, cp, dp, uf, lp,
-                            True)
-    return _chains_loop(n, n_pair, c_i, c_j, frame, w, gterm, mu, ri, rj, impulse, body_dyn,
-                        vel6, relax, tol, max_iter, link_i, link_j, l_normal, wl, l_unilateral,
-                        l_impulse, l_order, done, hot_sweeps, factor, q, hot, nc, starts,
-                        closed, d, e, rhs, lam, act, z, cp, dp, uf, lp, False)
+        return _chains_loop(n, n_pair, nc, C, B, L, K, relax, tol, max_iter, done, hot_sweeps,
+                            factor, q, hot, True)
+    return _chains_loop(n, n_pair, nc, C, B, L, K, relax, tol, max_iter, done, hot_sweeps,
+                        factor, q, hot, False)
 
 
 @njit(cache=True)
-def _chains_loop(n, n_pair, c_i, c_j, frame, w, gterm, mu, ri, rj, impulse, body_dyn, vel6,
-                 relax, tol, max_iter, link_i, link_j, l_normal, wl, l_unilateral, l_impulse,
-                 l_order, done, hot_sweeps, factor, q, hot, nc, starts, closed, d, e, rhs, lam,
-                 act, z, cp, dp, uf, lp, over):
+def _chains_loop(n, n_pair, nc, C, B, L, K, relax, tol, max_iter, done, hot_sweeps, factor, q,
+                 hot, over):
     """:func:`iterate_chains`' loop (``over``: over-relaxation, relax > 1)."""
     if n == 0 and nc == 0:
         return 0, 0.0
@@ -417,29 +419,26 @@ def _chains_loop(n, n_pair, c_i, c_j, frame, w, gterm, mu, ri, rj, impulse, body
     hbounds = np.empty(1, np.int64)
     res = 0.0
     for it in range(max_iter):
-        num, den = _full(n, n_pair, q, c_i, c_j, frame, w, gterm, mu, ri, rj, impulse,
-                         body_dyn, vel6, relax, over, True)
+        num, den = _full(n, n_pair, q, C, B, relax, over, True)
         if nc > 0:
-            lnum, lden = _links(done + it, nc, starts, closed, link_i, link_j, l_normal, wl,
-                                l_unilateral, l_impulse, body_dyn, vel6, relax, l_order, d, e,
-                                rhs, lam, act, z, cp, dp, uf, lp)
+            lnum, lden = _links(done + it, nc, K, L, B, relax)
             num += lnum
             den += lden
         res = np.sqrt(num / den) / relax if den > 0.0 else 0.0
         if res < tol:
             return it + 1, res
         if n > 0 and hot_sweeps > 0:
-            resweep_hot(n, q, factor, hot, bounds, hbounds, hot_sweeps, c_i, c_j, frame, w,
-                        gterm, mu, ri, rj, impulse, body_dyn, vel6, relax, over)
+            resweep_hot(n, q, factor, hot, bounds, hbounds, hot_sweeps, C, B, relax, over)
     return max_iter, res
 
 
 def chain_workspace(nl: int, link_i, link_j):
-    """(nc, starts, closed, the eight work arrays) for :func:`iterate_chains`."""
+    """(nc, :class:`ChainWork`) for :func:`iterate_chains`: the number of chains and their
+    arrays."""
     starts = np.empty(nl + 1, np.int64)
     closed = np.zeros(max(nl, 1), np.int8)
     nc = link_chains(nl, link_i, link_j, starts, closed)
     work = [np.zeros(max(nl, 1)) for _ in range(4)]          # d, e, rhs, lam
     act = np.zeros(max(nl, 1), np.int8)
     more = [np.zeros(max(nl, 1)) for _ in range(5)]          # z, cp, dp, uf, lp
-    return (nc, starts, closed, *work, act, *more)
+    return nc, ChainWork(starts, closed, *work, act, *more)

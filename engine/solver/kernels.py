@@ -8,14 +8,45 @@ velocities, removes its own contribution W_αα p_α to get the local free veloc
 local solver of its law (:mod:`engine.solver.local`) and applies the impulse change to the
 two bodies at once (so the next contact sees it: Gauss–Seidel); the wire links follow, in
 the same sweep.  The convergence norm is :mod:`engine.solver.nlgs`'s ("Quad").
+
+The sweeps take the step's arrays in three named tuples, built once per solve
+(:func:`engine.solver.nlgs._solve_on`): :class:`Contacts`, :class:`Bodies` and
+:class:`Links`.  numba types a named tuple of arrays as a tuple type and resolves each
+field access at compile time, so a kernel that takes ``C`` reads ``C.frame`` as it read
+its ``frame`` argument (bit-identical results, the same sweep speed: docs/engine.md, "The
+solver package"); the counts (``n``, ``n_pair``, ``nl``) and the scalars (``relax``,
+``tol``, ...) stay plain arguments.
 """
 from __future__ import annotations
+
+from collections import namedtuple
 
 import numpy as np
 from numba import njit
 
 from ..model import DYN_INV_INERTIA, DYN_INV_MASS, DYN_LINE, DYN_LX, DYN_LY, DYN_LZ
-from .local import coulomb
+from .local import coulomb, rod, wire
+
+#: The contact arrays of a sweep (the first ``n`` rows are the step's contacts; the
+#: contact buffers of :mod:`engine.contact`, in the sweep's body numbering, or the
+#: parallel sweep's copies gathered by group):
+#: ``i, j`` (n,) int32 bodies; ``frame`` (n, 9) local frames (n, t, s) [-];
+#: ``w`` (n, 4) Delassus diagonals (W_nn, W_tt, 1/W_nn, 1/W_tt) [1/kg, kg];
+#: ``gterm`` (n,) gap terms max(g_m, 0)/h [m/s]; ``mu`` (n,) friction [-];
+#: ``ri, rj`` (n,) lever arms [m]; ``impulse`` (n, 3) local impulses (p_n, p_t, p_s) [N·s],
+#: updated in place.
+Contacts = namedtuple("Contacts", "i j frame w gterm mu ri rj impulse")
+
+#: The body arrays of a sweep: ``dyn`` (nb, 8) the rows of ``model.body_dyn`` (inverse mass
+#: and inertia, LINE axis) and ``vel6`` (nb, 6) velocities [m/s, rad/s], updated in place.
+Bodies = namedtuple("Bodies", "dyn vel6")
+
+#: The wire-link arrays of a sweep: ``i, j`` (nl,) int32 beads; ``normal`` (nl, 3) unit
+#: vectors from j to i; ``wl`` (nl, LINK_COLUMNS) the per-link data of
+#: :func:`link_prepare`; ``unilateral`` (nl,) 1 for the wires (λ >= 0), 0 for the rods;
+#: ``impulse`` (nl,) link impulses λ [N·s] (tension positive), updated in place;
+#: ``order`` (nl,) the visiting order (``model.link_order``).
+Links = namedtuple("Links", "i j normal wl unilateral impulse order")
 
 
 @njit(cache=True, inline="always")
@@ -141,10 +172,10 @@ def prepare(n, c_i, c_j, key, frame, gap, ri, rj, w, gterm, impulse, body_dyn, v
 
 
 @njit(cache=True, inline="always")
-def _contact(a, c_i, c_j, frame, w, gterm, mu, ri, rj, impulse, body_dyn, vel6, relax, line_j,
-             guard=False, over=False):
-    """Solve contact ``a`` given the others (one Gauss–Seidel update); returns its two
-    terms of the Quad norm, (‖W Δp‖², ‖W p‖²).  ``line_j``, ``guard``: see :func:`_apply`.
+def _contact(a, C, B, relax, line_j, guard=False, over=False):
+    """Solve contact ``a`` of ``C`` (:class:`Contacts`) given the others (one Gauss–Seidel
+    update, moving the velocities of ``B``, :class:`Bodies`); returns its two terms of the
+    Quad norm, (‖W Δp‖², ‖W p‖²).  ``line_j``, ``guard``: see :func:`_apply`.
     ``over`` (a compile-time constant at each call site, like them): the over-relaxed
     (ω > 1) update, projected SOR.  Measured on the peers deposit: re-projecting the relaxed
     impulse on the cone (a second disk projection, its square root and division) made the
@@ -154,6 +185,8 @@ def _contact(a, c_i, c_j, frame, w, gterm, mu, ri, rj, impulse, body_dyn, vel6, 
     cost 1-2 ns per contact when done at ω = 1 too.  So the callers pick the variant once
     per sweep (:func:`sweep`, :func:`iterate_hot`), and the ω <= 1 path is the plain
     update."""
+    c_i, c_j, frame, w, gterm, mu, ri, rj, impulse = C
+    body_dyn, vel6 = B
     wn = w[a, 0]
     if wn <= 0.0:  # both bodies immobile
         return 0.0, 0.0
@@ -217,8 +250,7 @@ def _contact(a, c_i, c_j, frame, w, gterm, mu, ri, rj, impulse, body_dyn, vel6, 
 
 
 @njit(cache=True, inline="always")
-def _span(lo, hi, q, c_i, c_j, frame, w, gterm, mu, ri, rj, impulse, body_dyn, vel6, relax,
-          line_j, guard, over, store):
+def _span(lo, hi, q, C, B, relax, line_j, guard, over, store):
     """Contacts ``lo..hi`` in order (``line_j``, ``guard``, ``over``: constants at each call
     site, see :func:`_contact`); each ‖W Δp‖² goes to ``q[a]`` when ``store``.  Returns the
     Quad sums.  The parallel sweep's groups run through it too
@@ -226,8 +258,7 @@ def _span(lo, hi, q, c_i, c_j, frame, w, gterm, mu, ri, rj, impulse, body_dyn, v
     num = 0.0
     den = 0.0
     for a in range(lo, hi):
-        x, y = _contact(a, c_i, c_j, frame, w, gterm, mu, ri, rj, impulse, body_dyn, vel6, relax,
-                        line_j, guard, over)
+        x, y = _contact(a, C, B, relax, line_j, guard, over)
         if store:
             q[a] = x
         num += x
@@ -236,31 +267,27 @@ def _span(lo, hi, q, c_i, c_j, frame, w, gterm, mu, ri, rj, impulse, body_dyn, v
 
 
 @njit(cache=True, inline="always")
-def _full(n, n_pair, q, c_i, c_j, frame, w, gterm, mu, ri, rj, impulse, body_dyn, vel6, relax,
-          over, store):
+def _full(n, n_pair, q, C, B, relax, over, store):
     """All ``n`` contacts: the sphere–sphere ones (the first ``n_pair``), then those that may
     touch a driven wall; returns the Quad sums."""
-    num, den = _span(0, n_pair, q, c_i, c_j, frame, w, gterm, mu, ri, rj, impulse, body_dyn,
-                     vel6, relax, False, False, over, store)
-    x, y = _span(n_pair, n, q, c_i, c_j, frame, w, gterm, mu, ri, rj, impulse, body_dyn, vel6,
-                 relax, True, False, over, store)
+    num, den = _span(0, n_pair, q, C, B, relax, False, False, over, store)
+    x, y = _span(n_pair, n, q, C, B, relax, True, False, over, store)
     return num + x, den + y
 
 
 @njit(cache=True)
-def sweep(n, n_pair, c_i, c_j, frame, w, gterm, mu, ri, rj, impulse, body_dyn, vel6, relax):
-    """One Gauss–Seidel sweep over the ``n`` contacts; returns (Σ‖WΔp‖², Σ‖Wp‖²).
+def sweep(n, n_pair, C, B, relax):
+    """One Gauss–Seidel sweep over the ``n`` contacts of ``C`` (:class:`Contacts`), moving
+    the velocities of ``B`` (:class:`Bodies`); returns (Σ‖WΔp‖², Σ‖Wp‖²).
 
     The first ``n_pair`` contacts are sphere–sphere (no driven wall involved), the others
     sphere–wall: two loops, so that the sphere–sphere loop carries no driven-wall branch;
     over-relaxed sweeps (ω > 1) run their own copy of the loops (see :func:`_contact`).
     Hot loop: scalar arithmetic on contiguous arrays only (no temporaries).
     """
-    if relax > 1.0:
-        return _full(n, n_pair, gterm, c_i, c_j, frame, w, gterm, mu, ri, rj, impulse,
-                     body_dyn, vel6, relax, True, False)
-    return _full(n, n_pair, gterm, c_i, c_j, frame, w, gterm, mu, ri, rj, impulse, body_dyn,
-                 vel6, relax, False, False)
+    if relax > 1.0:  # (q unused: store is False)
+        return _full(n, n_pair, C.gterm, C, B, relax, True, False)
+    return _full(n, n_pair, C.gterm, C, B, relax, False, False)
 
 
 @njit(cache=True, inline="always")
@@ -340,9 +367,13 @@ def lstar(l, normal, wl, wx, wy, wz):
 
 
 @njit(cache=True, inline="always")
-def link_update(l, link_i, link_j, normal, wl, unilateral, impulse, body_dyn, vel6, relax):
-    """The Gauss–Seidel update of link ``l`` (see :func:`link_sweep`); returns its Quad
-    terms ((W Δλ)², (W λ)²), (0, 0) for a skipped link."""
+def link_update(l, L, B, relax):
+    """The Gauss–Seidel update of link ``l`` of ``L`` (:class:`Links`; its local solve:
+    :func:`engine.solver.local.rod` and :func:`~engine.solver.local.wire`, see
+    :func:`link_sweep`); returns its Quad terms ((W Δλ)², (W λ)²), (0, 0) for a skipped
+    link."""
+    link_i, link_j, normal, wl, unilateral, impulse, _ = L
+    body_dyn, vel6 = B
     iwc = wl[l, 1]
     if iwc == 0.0:  # skipped link (see link_prepare)
         return 0.0, 0.0
@@ -355,12 +386,11 @@ def link_update(l, link_i, link_j, normal, wl, unilateral, impulse, body_dyn, ve
     u, ls = lstar(l, normal, wl, vel6[i, 0] - vel6[j, 0], vel6[i, 1] - vel6[j, 1],
                   vel6[i, 2] - vel6[j, 2])
     lam0 = impulse[l]
-    lam = (u + W * lam0 + (wl[l, 2] - ls) * wl[l, 5]) * iwc
-    # projected relaxation: λ0 + ω (λ_GS − λ0), then λ >= 0 for the wires (at ω = 1
-    # the added term is exactly 0: the plain update)
-    lam += (relax - 1.0) * (lam - lam0)
-    if unilateral[l] != 0 and lam < 0.0:
-        lam = 0.0
+    # the local free velocity u_f = u + W λ0 and the length term (g − L*)/h
+    if unilateral[l] != 0:
+        lam = wire(u + W * lam0, (wl[l, 2] - ls) * wl[l, 5], iwc, lam0, relax)
+    else:
+        lam = rod(u + W * lam0, (wl[l, 2] - ls) * wl[l, 5], iwc, lam0, relax)
     dl = lam - lam0
     lam = lam0 + dl
     impulse[l] = lam
@@ -369,10 +399,13 @@ def link_update(l, link_i, link_j, normal, wl, unilateral, impulse, body_dyn, ve
 
 
 @njit(cache=True)
-def link_sweep(nl, link_i, link_j, normal, wl, unilateral, impulse, body_dyn, vel6, relax, order):
-    """One Gauss–Seidel sweep over the wire links; returns (Σ(W Δλ)², Σ(W λ)²).
+def link_sweep(nl, L, B, relax):
+    """One Gauss–Seidel sweep over the ``nl`` wire links of ``L`` (:class:`Links`), in its
+    ``order``; returns (Σ(W Δλ)², Σ(W λ)²).
 
-    Local solver of each law after the change of variables of Eq. (8): with u = n·(v_i − v_j)
+    Local solver of each law after the change of variables of Eq. (8)
+    (:mod:`engine.solver.local`: :func:`~engine.solver.local.rod` for the rods,
+    :func:`~engine.solver.local.wire` for the wires): with u = n·(v_i − v_j)
     the current normal velocity and u_f = u + W λ₀ the local free velocity (own impulse
     removed), the impulse λ (tension positive: −λ n acts on i, +λ n on j) is
 
@@ -401,21 +434,22 @@ def link_sweep(nl, link_i, link_j, normal, wl, unilateral, impulse, body_dyn, ve
     0.99 L² it decayed, as it does with L* = L.  At h = 0.1 ms the bound is not reached in
     the tests.
     """
+    order = L.order
     num = 0.0
     den = 0.0
     for m in range(nl):
-        x, y = link_update(order[m], link_i, link_j, normal, wl, unilateral, impulse,
-                           body_dyn, vel6, relax)
+        x, y = link_update(order[m], L, B, relax)
         num += x
         den += y
     return num, den
 
 
 @njit(cache=True)
-def iterate(n, n_pair, c_i, c_j, frame, w, gterm, mu, ri, rj, impulse, body_dyn, vel6, relax,
-            tol, max_iter, nl, link_i, link_j, l_normal, wl, l_unilateral, l_impulse, l_order):
-    """Sweep contacts then links until the Quad residual (over both) is below ``tol`` or
-    ``max_iter`` sweeps are done.  A scene without links never enters the link loop.
+def iterate(n, n_pair, nl, C, B, L, relax, tol, max_iter):
+    """Sweep the ``n`` contacts of ``C`` then the ``nl`` links of ``L`` (:class:`Contacts`,
+    :class:`Links`; the first ``n_pair`` contacts are sphere–sphere, :func:`sweep`) until the
+    Quad residual (over both) is below ``tol`` or ``max_iter`` sweeps are done.  A scene
+    without links never enters the link loop.
 
     Returns ``(iterations, residual)``.
     """
@@ -423,8 +457,7 @@ def iterate(n, n_pair, c_i, c_j, frame, w, gterm, mu, ri, rj, impulse, body_dyn,
         return 0, 0.0
     res = 0.0
     for it in range(max_iter):
-        res = sweep_all(n, n_pair, c_i, c_j, frame, w, gterm, mu, ri, rj, impulse, body_dyn, vel6,
-                        relax, nl, link_i, link_j, l_normal, wl, l_unilateral, l_impulse, l_order)
+        res = sweep_all(n, n_pair, nl, C, B, L, relax)
         if res < tol:
             return it + 1, res
     return max_iter, res
@@ -462,9 +495,7 @@ def hot_list(n, q, factor, hot, bounds, hbounds):
 
 
 @njit(cache=True)
-def iterate_hot(n, n_pair, c_i, c_j, frame, w, gterm, mu, ri, rj, impulse, body_dyn, vel6, relax,
-                tol, max_iter, nl, link_i, link_j, l_normal, wl, l_unilateral, l_impulse,
-                l_order, hot_sweeps, factor, q, hot):
+def iterate_hot(n, n_pair, nl, C, B, L, relax, tol, max_iter, hot_sweeps, factor, q, hot):
     """:func:`iterate` with re-sweeps of the hot contacts (``Options.hot_sweeps``).
 
     After each full sweep (contacts then links) that has not converged, the contacts whose
@@ -478,19 +509,15 @@ def iterate_hot(n, n_pair, c_i, c_j, frame, w, gterm, mu, ri, rj, impulse, body_
     Returns ``(iterations, residual)``: full sweeps, not counting the re-sweeps.
     """
     if relax > 1.0:  # the over-relaxed copy of the loops (see :func:`_contact`)
-        return _iterate_hot(n, n_pair, c_i, c_j, frame, w, gterm, mu, ri, rj, impulse,
-                            body_dyn, vel6, relax, tol, max_iter, nl, link_i, link_j, l_normal,
-                            wl, l_unilateral, l_impulse, l_order, hot_sweeps, factor, q, hot,
-                            True)
-    return _iterate_hot(n, n_pair, c_i, c_j, frame, w, gterm, mu, ri, rj, impulse, body_dyn,
-                        vel6, relax, tol, max_iter, nl, link_i, link_j, l_normal, wl,
-                        l_unilateral, l_impulse, l_order, hot_sweeps, factor, q, hot, False)
+        return _iterate_hot(n, n_pair, nl, C, B, L, relax, tol, max_iter, hot_sweeps, factor,
+                            q, hot, True)
+    return _iterate_hot(n, n_pair, nl, C, B, L, relax, tol, max_iter, hot_sweeps, factor, q,
+                        hot, False)
 
 
 @njit(cache=True, inline="always")
-def _iterate_hot(n, n_pair, c_i, c_j, frame, w, gterm, mu, ri, rj, impulse, body_dyn, vel6,
-                 relax, tol, max_iter, nl, link_i, link_j, l_normal, wl, l_unilateral,
-                 l_impulse, l_order, hot_sweeps, factor, q, hot, over):
+def _iterate_hot(n, n_pair, nl, C, B, L, relax, tol, max_iter, hot_sweeps, factor, q, hot,
+                 over):
     """:func:`iterate_hot`'s loop, ``over`` a constant at each call site."""
     if n == 0 and nl == 0:
         return 0, 0.0
@@ -498,48 +525,39 @@ def _iterate_hot(n, n_pair, c_i, c_j, frame, w, gterm, mu, ri, rj, impulse, body
     hbounds = np.empty(1, np.int64)
     res = 0.0
     for it in range(max_iter):
-        num, den = _full(n, n_pair, q, c_i, c_j, frame, w, gterm, mu, ri, rj, impulse,
-                         body_dyn, vel6, relax, over, True)
-        res = links_then_residual(num, den, nl, link_i, link_j, l_normal, wl, l_unilateral,
-                                  l_impulse, body_dyn, vel6, relax, l_order)
+        num, den = _full(n, n_pair, q, C, B, relax, over, True)
+        res = links_then_residual(num, den, nl, L, B, relax)
         if res < tol:
             return it + 1, res
         if n == 0:
             continue
-        resweep_hot(n, q, factor, hot, bounds, hbounds, hot_sweeps, c_i, c_j, frame, w, gterm,
-                    mu, ri, rj, impulse, body_dyn, vel6, relax, over)
+        resweep_hot(n, q, factor, hot, bounds, hbounds, hot_sweeps, C, B, relax, over)
     return max_iter, res
 
 
 @njit(cache=True, inline="always")
-def resweep_hot(n, q, factor, hot, bounds, hbounds, hot_sweeps, c_i, c_j, frame, w, gterm, mu,
-                ri, rj, impulse, body_dyn, vel6, relax, over):
+def resweep_hot(n, q, factor, hot, bounds, hbounds, hot_sweeps, C, B, relax, over):
     """Sweep the hot contacts of the last full sweep (:func:`hot_list` on its ``q``)
     ``hot_sweeps`` times (``over``: a constant at each call site, see :func:`_contact`)."""
     m = hot_list(n, q, factor, hot, bounds, hbounds)
     m_pair = hbounds[0]  # hot sphere–sphere contacts come first (hot is in buffer order)
     for _ in range(hot_sweeps):
         for k in range(m_pair):
-            _contact(hot[k], c_i, c_j, frame, w, gterm, mu, ri, rj, impulse, body_dyn,
-                     vel6, relax, False, False, over)
+            _contact(hot[k], C, B, relax, False, False, over)
         for k in range(m_pair, m):
-            _contact(hot[k], c_i, c_j, frame, w, gterm, mu, ri, rj, impulse, body_dyn,
-                     vel6, relax, True, False, over)
+            _contact(hot[k], C, B, relax, True, False, over)
 
 
 @njit(cache=True)
-def sweep_all(n, n_pair, c_i, c_j, frame, w, gterm, mu, ri, rj, impulse, body_dyn, vel6, relax,
-              nl, link_i, link_j, l_normal, wl, l_unilateral, l_impulse, l_order):
-    """One sweep of the contacts then the links; returns the Quad residual of the sweep."""
-    num, den = sweep(n, n_pair, c_i, c_j, frame, w, gterm, mu, ri, rj, impulse, body_dyn, vel6,
-                     relax)
-    return links_then_residual(num, den, nl, link_i, link_j, l_normal, wl, l_unilateral,
-                               l_impulse, body_dyn, vel6, relax, l_order)
+def sweep_all(n, n_pair, nl, C, B, L, relax):
+    """One sweep of the contacts then the links (:func:`iterate`'s arguments); returns the
+    Quad residual of the sweep."""
+    num, den = sweep(n, n_pair, C, B, relax)
+    return links_then_residual(num, den, nl, L, B, relax)
 
 
 @njit(cache=True, inline="always")
-def links_then_residual(num, den, nl, link_i, link_j, l_normal, wl, l_unilateral, l_impulse,
-                        body_dyn, vel6, relax, l_order):
+def links_then_residual(num, den, nl, L, B, relax):
     """The end of every sweep: the links' sweep (if any) added to the contacts' Quad sums
     ``num``, ``den``, and the Quad residual sqrt(num / den) / ω (0 when nothing carries an
     impulse).  A relaxed sweep changes the impulses by ω times the Gauss–Seidel update
@@ -547,8 +565,7 @@ def links_then_residual(num, den, nl, link_i, link_j, l_normal, wl, l_unilateral
     measures the Gauss–Seidel update: the same stopping test whatever ω (at ω = 1, exactly
     the plain residual)."""
     if nl > 0:
-        lnum, lden = link_sweep(nl, link_i, link_j, l_normal, wl, l_unilateral, l_impulse,
-                                body_dyn, vel6, relax, l_order)
+        lnum, lden = link_sweep(nl, L, B, relax)
         num += lnum
         den += lden
     return np.sqrt(num / den) / relax if den > 0.0 else 0.0

@@ -1,8 +1,11 @@
 """Local solvers: one small function per law (jax-md style), called by the NLGS sweep.
 
-Each takes the local free velocity of its contact (the relative velocity that the other
-contacts and the external forces give, without its own impulse) and the diagonal of its
-Delassus block, and returns the impulse that satisfies the law exactly.
+Each takes the local free velocity of its contact or link (the relative velocity that the
+other contacts, links and external forces give, without its own impulse) and the inverse
+of the diagonal of its Delassus block, and returns the impulse that satisfies the law
+exactly: :func:`coulomb` for the contacts (:func:`engine.solver.kernels._contact`),
+:func:`rod` and :func:`wire` for the four wire link laws
+(:func:`engine.solver.kernels.link_update`).  Scalars in, scalars out.
 """
 from __future__ import annotations
 
@@ -59,3 +62,52 @@ def project_disk(pt, ps, lim):
         pt *= scale
         ps *= scale
     return pt, ps
+
+
+@njit(cache=True, inline="always")
+def rod(uf, stretch, iwc, lam0, relax):
+    """Rigid rod (Eq. 9) and elastic rod (Eq. 11): the bilateral link laws after the change
+    of variables of Eq. (8), for a link of Delassus diagonal W and compliance
+    c = L/(k h²) (0 for the rigid rod):
+
+        λ = (u_f + (g − L*)/h) / (W + c),
+
+    any sign (tension positive), relaxed to λ0 + ω (λ − λ0).
+
+    Parameters
+    ----------
+    uf : float [m/s]
+        Local free velocity u + W λ0 (u = n·(v_i − v_j) the current normal velocity).
+    stretch : float [m/s]
+        The length term (g − L*)/h (:func:`engine.solver.kernels.lstar`).
+    iwc : float [kg]
+        1/(W + c).
+    lam0 : float [N·s]
+        The link's impulse before the update.
+    relax : float [-]
+        Relaxation ω (at ω = 1 the added term is exactly 0: the plain update).
+
+    Returns
+    -------
+    float [N·s]
+    """
+    lam = (uf + stretch) * iwc
+    lam += (relax - 1.0) * (lam - lam0)
+    return lam
+
+
+@njit(cache=True, inline="always")
+def wire(uf, stretch, iwc, lam0, relax):
+    """Rigid wire (Eq. 13) and elastic wire (Eq. 15): the unilateral laws, :func:`rod`'s
+    λ (relaxed) projected on λ >= 0 (:func:`tension`): a wire pulls, never pushes.
+    Arguments as :func:`rod`'s."""
+    return tension(rod(uf, stretch, iwc, lam0, relax))
+
+
+@njit(cache=True, inline="always")
+def tension(lam):
+    """``lam`` projected on λ >= 0 (the wires' constraint; the Coulomb cone's counterpart
+    is :func:`project_disk`)."""
+    if lam < 0.0:
+        return 0.0
+    return lam

@@ -20,10 +20,11 @@ import numpy as np
 
 from ..stop import in_chunks
 # the kernels (engine.solver.kernels), also reachable here by their old names
-from .kernels import (HOT_FACTOR, _apply, _apply_link, _contact, _full, _iterate_hot, _line_factor,
-                      _local_index, _span, hot_list, iterate, iterate_hot, layout, link_prepare,
-                      link_sweep, link_update, links_then_residual, lstar, prepare, resweep_hot,
-                      sweep, sweep_all, warm_index, warm_store)  # noqa: F401
+from .kernels import (HOT_FACTOR, Bodies, Contacts, Links, _apply, _apply_link, _contact, _full,
+                      _iterate_hot, _line_factor, _local_index, _span, hot_list, iterate,
+                      iterate_hot, layout, link_prepare, link_sweep, link_update,
+                      links_then_residual, lstar, prepare, resweep_hot, sweep, sweep_all,
+                      warm_index, warm_store)  # noqa: F401
 
 
 #: Scenes with at least this many bodies are swept on the local layout of :func:`layout`
@@ -78,7 +79,11 @@ def solve(model, state, break_links: bool = True):
 
 
 def _solve_on(model, state, ci, cj, body_dyn, vel6, pos, link_i, link_j, threads):
-    """prepare, link_prepare and iterate on the given body numbering (global or local)."""
+    """prepare, link_prepare and iterate on the given body numbering (global or local).
+
+    The sweeps take the arrays as three named tuples built here once
+    (:class:`~engine.solver.kernels.Contacts`, :class:`~engine.solver.kernels.Bodies`,
+    :class:`~engine.solver.kernels.Links`)."""
     o = model.options
     c = state.contacts_buf
     n = c.count
@@ -91,16 +96,18 @@ def _solve_on(model, state, ci, cj, body_dyn, vel6, pos, link_i, link_j, threads
         link_prepare(nl, link_i, link_j, model.link_ref_length, model.link_stiffness,
                      state.link_broken, pos, body_dyn, vel6,
                      state.link_impulse, state.link_normal, state.link_gap, wl, o.dt)
+    C = Contacts(ci, cj, c.frame, c.w, c.gterm, c.mu, c.ri, c.rj, c.impulse)
+    B = Bodies(body_dyn, vel6)
+    L = Links(link_i, link_j, state.link_normal, wl, model.link_unilateral, state.link_impulse,
+              model.link_order)
     if o.chain_solve and nl and threads == 1:   # (Options refuses the other variants)
         from .chains import chain_workspace, iterate_chains
 
-        cw = chain_workspace(nl, link_i, link_j)
+        nc, cw = chain_workspace(nl, link_i, link_j)
         q, hot = np.empty(n), np.empty(n, np.int32)
         return in_chunks(lambda done, m: iterate_chains(
-            n, c.n_pair, ci, cj, c.frame, c.w, c.gterm, c.mu, c.ri, c.rj, c.impulse, body_dyn,
-            vel6, o.relax, o.tol, m, link_i, link_j, state.link_normal, wl,
-            model.link_unilateral, state.link_impulse, model.link_order, done, o.hot_sweeps,
-            HOT_FACTOR, q, hot, *cw), o.max_iter, o.tol, n + nl)
+            n, c.n_pair, nc, C, B, L, cw, o.relax, o.tol, m, done, o.hot_sweeps, HOT_FACTOR,
+            q, hot), o.max_iter, o.tol, n + nl)
     ws = None
     if o.anderson > 0:
         from .anderson import Workspace, run_anderson
@@ -110,37 +117,25 @@ def _solve_on(model, state, ci, cj, body_dyn, vel6, pos, link_i, link_j, threads
             ws = state.workspace.anderson = Workspace()
         if threads == 1:
             return in_chunks(lambda done, m: run_anderson(
-                ws, o.anderson, n, c.n_pair, ci, cj, c.frame, c.w, c.gterm, c.mu, c.ri, c.rj,
-                c.impulse, body_dyn, vel6, o.relax, o.tol, o.max_iter, nl, link_i, link_j,
-                state.link_normal, wl, model.link_unilateral, state.link_impulse,
-                model.link_order, it0=done, it1=done + m), o.max_iter, o.tol, n + nl)
+                ws, o.anderson, n, c.n_pair, nl, C, B, L, o.relax, o.tol, o.max_iter,
+                it0=done, it1=done + m), o.max_iter, o.tol, n + nl)
     if o.hot_sweeps > 0 and threads == 1:  # unmixed (Options refuses anderson > 0)
         q, hot = np.empty(n), np.empty(n, np.int32)
         return in_chunks(lambda done, m: iterate_hot(
-            n, c.n_pair, ci, cj, c.frame, c.w, c.gterm, c.mu, c.ri, c.rj, c.impulse, body_dyn,
-            vel6, o.relax, o.tol, m, nl, link_i, link_j, state.link_normal, wl,
-            model.link_unilateral, state.link_impulse, model.link_order, o.hot_sweeps,
-            HOT_FACTOR, q, hot), o.max_iter, o.tol, n + nl)
-    if threads == 1:
-        return in_chunks(lambda done, m: iterate(
-            n, c.n_pair, ci, cj, c.frame, c.w, c.gterm, c.mu, c.ri, c.rj, c.impulse, body_dyn,
-            vel6, o.relax, o.tol, m, nl, link_i, link_j, state.link_normal, wl,
-            model.link_unilateral, state.link_impulse, model.link_order),
+            n, c.n_pair, nl, C, B, L, o.relax, o.tol, m, o.hot_sweeps, HOT_FACTOR, q, hot),
             o.max_iter, o.tol, n + nl)
+    if threads == 1:
+        return in_chunks(lambda done, m: iterate(n, c.n_pair, nl, C, B, L, o.relax, o.tol, m),
+                         o.max_iter, o.tol, n + nl)
     from .parallel import iterate_parallel
 
     mix = None
     if o.anderson > 0:
         from .anderson import domain_mixer
 
-        mix = domain_mixer(ws, o.anderson, o.max_iter, o.tol, nl, link_i, link_j,
-                           state.link_normal, wl, model.link_unilateral, state.link_impulse,
-                           model.link_order)
-    return iterate_parallel(threads, n, ci, cj, c.frame, c.w, c.gterm, c.mu, c.ri, c.rj,
-                            c.impulse, body_dyn, vel6, o.relax, o.tol, o.max_iter,
-                            nl, link_i, link_j, state.link_normal, wl,
-                            model.link_unilateral, state.link_impulse, model.link_order,
-                            mix, o.hot_sweeps)
+        mix = domain_mixer(ws, o.anderson, o.max_iter, o.tol, nl, L)
+    return iterate_parallel(threads, n, nl, C, B, L, o.relax, o.tol, o.max_iter, mix,
+                            o.hot_sweeps)
 
 
 #: Columns of the per-link work array ``wl`` filled by :func:`link_prepare`.

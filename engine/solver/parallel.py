@@ -23,9 +23,13 @@ summed in a fixed order, so results do not depend on the thread scheduling (they
 ``T``, and differ from the serial sweep by the visiting order, i.e. within the tolerance).
 
 The contacts are gathered group by group into contiguous scratch arrays before the sweeps
-(each thread streams its own slab) and the impulses scattered back after.
+(each thread streams its own slab) and the impulses scattered back after.  The kernels take
+them, as the serial ones do, as a :class:`~engine.solver.kernels.Contacts` named tuple, with
+the groups' bounds as a :class:`Groups` one.
 """
 from __future__ import annotations
+
+from collections import namedtuple
 
 import numpy as np
 from numba import njit, prange
@@ -34,7 +38,13 @@ from ..stop import in_chunks
 from ..threads import numba_threads
 
 from ..model import DYN_INV_INERTIA, DYN_INV_MASS, DYN_LINE
-from .kernels import HOT_FACTOR, _contact, _span, hot_list, links_then_residual
+from .kernels import HOT_FACTOR, Contacts, _contact, _span, hot_list, links_then_residual
+
+#: The contact groups of :func:`partition` as the grouped sweeps take them: ``start``
+#: (2T + 1,) int64 the groups' starts in the gathered contacts, ``mid`` (2T,) int64 where
+#: each group's contacts touching an immobile body start, ``acc`` (2T, 2) the groups' Quad
+#: sums of the last pass (work array).
+Groups = namedtuple("Groups", "start mid acc")
 
 
 @njit(cache=True)
@@ -119,9 +129,11 @@ def partition(n, T, c_i, c_j, body_dyn, nloc, group, start, order, mid):
 
 
 @njit(cache=True)
-def gather(n, order, c_i, c_j, frame, w, gterm, mu, ri, rj, impulse,
-           g_i, g_j, g_frame, g_w, g_gterm, g_mu, g_ri, g_rj, g_impulse):
-    """Copy the contact arrays in group order (``g_*[m] = *[order[m]]``)."""
+def gather(n, order, C, G):
+    """Copy the contact arrays of ``C`` into those of ``G`` (both
+    :class:`~engine.solver.kernels.Contacts`) in group order (``G.x[m] = C.x[order[m]]``)."""
+    c_i, c_j, frame, w, gterm, mu, ri, rj, impulse = C
+    g_i, g_j, g_frame, g_w, g_gterm, g_mu, g_ri, g_rj, g_impulse = G
     for m in range(n):
         a = order[m]
         g_i[m] = c_i[a]
@@ -165,18 +177,15 @@ def phases(T):
 
 
 @njit(cache=True, inline="always")
-def _run(lo, hi, q, c_i, c_j, frame, w, gterm, mu, ri, rj, impulse, body_dyn, vel6, relax,
-         guard):
+def _run(lo, hi, q, C, B, relax, guard):
     """Contacts ``lo..hi`` of a group in order, with or without the immobile-body guard (a
     constant at each call site); each ‖W Δp‖² stored in ``q`` unless ``q`` is empty.
     Returns the Quad sums."""
-    return _span(lo, hi, q, c_i, c_j, frame, w, gterm, mu, ri, rj, impulse, body_dyn, vel6,
-                 relax, False, guard, False, q.shape[0] > 0)
+    return _span(lo, hi, q, C, B, relax, False, guard, False, q.shape[0] > 0)
 
 
 @njit(cache=True)
-def _group(kind, g, start, mid, hot, q, c_i, c_j, frame, w, gterm, mu, ri, rj, impulse,
-           body_dyn, vel6, relax):
+def _group(kind, g, start, mid, hot, q, C, B, relax):
     """Sweep group ``g`` on one thread.  ``kind`` 0: its contacts ``start[g]..start[g+1]``,
     each ‖W Δp‖² stored in ``q`` when ``q`` is not empty; returns the Quad sums.  ``kind`` 1:
     the hot contacts ``hot[start[g]..start[g+1]]`` (``start`` is then the hot list's group
@@ -187,56 +196,45 @@ def _group(kind, g, start, mid, hot, q, c_i, c_j, frame, w, gterm, mu, ri, rj, i
     den = 0.0
     m = mid[g]
     if kind == 0:
-        num, den = _run(start[g], m, q, c_i, c_j, frame, w, gterm, mu, ri, rj, impulse,
-                        body_dyn, vel6, relax, False)
-        x, y = _run(m, start[g + 1], q, c_i, c_j, frame, w, gterm, mu, ri, rj, impulse,
-                    body_dyn, vel6, relax, True)
+        num, den = _run(start[g], m, q, C, B, relax, False)
+        x, y = _run(m, start[g + 1], q, C, B, relax, True)
         num += x
         den += y
     else:
         for k in range(start[g], start[g + 1]):
             a = hot[k]
             if a < m:
-                _contact(a, c_i, c_j, frame, w, gterm, mu, ri, rj, impulse, body_dyn, vel6,
-                         relax, False, False)
+                _contact(a, C, B, relax, False, False)
             else:
-                _contact(a, c_i, c_j, frame, w, gterm, mu, ri, rj, impulse, body_dyn, vel6,
-                         relax, False, True)
+                _contact(a, C, B, relax, False, True)
     return num, den
 
 
 @njit(cache=True)
-def _group_acc(kind, g, start, mid, hot, q, c_i, c_j, frame, w, gterm, mu, ri, rj, impulse,
-               body_dyn, vel6, relax, acc):
+def _group_acc(kind, g, start, mid, hot, q, C, B, relax, acc):
     """:func:`_group`, its Quad sums written to row ``g`` of ``acc``."""
-    x, y = _group(kind, g, start, mid, hot, q, c_i, c_j, frame, w, gterm, mu, ri, rj, impulse,
-                  body_dyn, vel6, relax)
+    x, y = _group(kind, g, start, mid, hot, q, C, B, relax)
     acc[g, 0] = x
     acc[g, 1] = y
 
 
 @njit(cache=True, parallel=True)
-def _phase(kind, first, count, stride, start, mid, hot, q, c_i, c_j, frame, w, gterm, mu, ri,
-           rj, impulse, body_dyn, vel6, relax, acc):
+def _phase(kind, first, count, stride, start, mid, hot, q, C, B, relax, acc):
     """Groups first, first + stride, ... (``count`` of them) at once, one per thread."""
     for k in prange(count):
-        _group_acc(kind, first + k * stride, start, mid, hot, q, c_i, c_j, frame, w, gterm, mu,
-                   ri, rj, impulse, body_dyn, vel6, relax, acc)
+        _group_acc(kind, first + k * stride, start, mid, hot, q, C, B, relax, acc)
 
 
 @njit(cache=True)
-def _in_turn(kind, first, count, stride, start, mid, hot, q, c_i, c_j, frame, w, gterm, mu,
-             ri, rj, impulse, body_dyn, vel6, relax, acc):
+def _in_turn(kind, first, count, stride, start, mid, hot, q, C, B, relax, acc):
     """:func:`_phase` on the calling thread, group after group (the groups of one phase
     share no body: the same result)."""
     for k in range(count):
-        _group_acc(kind, first + k * stride, start, mid, hot, q, c_i, c_j, frame, w, gterm, mu,
-                   ri, rj, impulse, body_dyn, vel6, relax, acc)
+        _group_acc(kind, first + k * stride, start, mid, hot, q, C, B, relax, acc)
 
 
 @njit(cache=True)
-def _phases(kind, T, start, mid, hot, q, c_i, c_j, frame, w, gterm, mu, ri, rj, impulse,
-            body_dyn, vel6, relax, acc, min_par):
+def _phases(kind, T, start, mid, hot, q, C, B, relax, acc, min_par):
     """One pass over the groups in their race-free order: the ``T`` interiors at once, the
     even boundaries at once, the odd ones, then the shared contacts on one thread (full
     kernel: LINE walls).  A pass of fewer than ``min_par`` grouped contacts
@@ -247,18 +245,14 @@ def _phases(kind, T, start, mid, hot, q, c_i, c_j, frame, w, gterm, mu, ri, rj, 
     in_turn = start[ng - 1] - start[0] < min_par
     for first, count, stride in phases(T):
         if in_turn or count == 1:
-            _in_turn(kind, first, count, stride, start, mid, hot, q, c_i, c_j, frame, w, gterm,
-                     mu, ri, rj, impulse, body_dyn, vel6, relax, acc)
+            _in_turn(kind, first, count, stride, start, mid, hot, q, C, B, relax, acc)
         elif count > 1:
-            _phase(kind, first, count, stride, start, mid, hot, q, c_i, c_j, frame, w, gterm,
-                   mu, ri, rj, impulse, body_dyn, vel6, relax, acc)
-    return _shared_and_sum(kind, ng, start, hot, q, c_i, c_j, frame, w, gterm, mu, ri, rj,
-                           impulse, body_dyn, vel6, relax, acc)
+            _phase(kind, first, count, stride, start, mid, hot, q, C, B, relax, acc)
+    return _shared_and_sum(kind, ng, start, hot, q, C, B, relax, acc)
 
 
 @njit(cache=True)
-def _shared_and_sum(kind, ng, start, hot, q, c_i, c_j, frame, w, gterm, mu, ri, rj, impulse,
-                    body_dyn, vel6, relax, acc):
+def _shared_and_sum(kind, ng, start, hot, q, C, B, relax, acc):
     """The shared group on this thread (full kernel: LINE walls), then the Quad sums of the
     pass: the shared ones, then each group's row of ``acc`` in order."""
     num = 0.0
@@ -266,8 +260,7 @@ def _shared_and_sum(kind, ng, start, hot, q, c_i, c_j, frame, w, gterm, mu, ri, 
     keep = q.shape[0] > 0
     for k in range(start[ng - 1], start[ng]):
         a = k if kind == 0 else hot[k]
-        x, y = _contact(a, c_i, c_j, frame, w, gterm, mu, ri, rj, impulse, body_dyn, vel6,
-                        relax, True)
+        x, y = _contact(a, C, B, relax, True)
         if kind == 0 and keep:
             q[a] = x
         num += x
@@ -279,23 +272,18 @@ def _shared_and_sum(kind, ng, start, hot, q, c_i, c_j, frame, w, gterm, mu, ri, 
 
 
 @njit(cache=True)
-def sweep_groups(T, start, mid, c_i, c_j, frame, w, gterm, mu, ri, rj, impulse, body_dyn, vel6,
-                 relax, nl, link_i, link_j, l_normal, wl, l_unilateral, l_impulse, l_order, acc, q,
-                 min_par):
-    """One sweep of the grouped contacts (interiors, even boundaries, odd boundaries,
-    shared) then the links; returns the Quad residual of the sweep.  Each contact's
-    ‖W Δp‖² goes to ``q`` unless ``q`` is empty."""
-    num, den = _phases(0, T, start, mid, c_i[:0], q, c_i, c_j, frame, w, gterm,
-                       mu, ri, rj, impulse, body_dyn, vel6, relax, acc, min_par)
-    return links_then_residual(num, den, nl, link_i, link_j, l_normal, wl, l_unilateral,
-                               l_impulse, body_dyn, vel6, relax, l_order)
+def sweep_groups(T, G, nl, C, B, L, relax, q, min_par):
+    """One sweep of the grouped contacts ``C`` (:class:`~engine.solver.kernels.Contacts`
+    gathered by group, :class:`Groups` ``G``: interiors, even boundaries, odd boundaries,
+    shared) then the ``nl`` links of ``L``; returns the Quad residual of the sweep.  Each
+    contact's ‖W Δp‖² goes to ``q`` unless ``q`` is empty."""
+    num, den = _phases(0, T, G.start, G.mid, C.i[:0], q, C, B, relax, G.acc, min_par)
+    return links_then_residual(num, den, nl, L, B, relax)
 
 
 @njit(cache=True)
-def iterate_groups(T, n, start, mid, c_i, c_j, frame, w, gterm, mu, ri, rj, impulse, body_dyn,
-                   vel6, relax, tol, max_iter, nl, link_i, link_j, l_normal, wl,
-                   l_unilateral, l_impulse, l_order, acc, hot_sweeps, factor, q, hot, hstart,
-                   min_par):
+def iterate_groups(T, n, nl, G, C, B, L, relax, tol, max_iter, hot_sweeps, factor, q, hot,
+                   hstart, min_par):
     """Sweeps (:func:`sweep_groups`) until the Quad residual is below ``tol``; returns
     (iterations, residual).  With ``hot_sweeps`` > 0, after each full sweep that has not
     converged the hot contacts (:func:`engine.solver.nlgs.hot_list`, ``factor``) are swept
@@ -307,26 +295,22 @@ def iterate_groups(T, n, start, mid, c_i, c_j, frame, w, gterm, mu, ri, rj, impu
         return 0, 0.0
     res = 0.0
     for it in range(max_iter):
-        res = sweep_groups(T, start, mid, c_i, c_j, frame, w, gterm, mu, ri, rj, impulse, body_dyn,
-                           vel6, relax, nl, link_i, link_j, l_normal, wl, l_unilateral,
-                           l_impulse, l_order, acc, q, min_par)
+        res = sweep_groups(T, G, nl, C, B, L, relax, q, min_par)
         if res < tol:
             return it + 1, res
         if hot_sweeps == 0 or n == 0:
             continue
-        hot_list(n, q, factor, hot, start, hstart)
+        hot_list(n, q, factor, hot, G.start, hstart)
         for _ in range(hot_sweeps):
-            _phases(1, T, hstart, mid, hot, q, c_i, c_j, frame, w, gterm, mu, ri, rj, impulse,
-                    body_dyn, vel6, relax, acc, min_par)
+            _phases(1, T, hstart, G.mid, hot, q, C, B, relax, G.acc, min_par)
     return max_iter, res
 
 
-def iterate_parallel(T, n, c_i, c_j, frame, w, gterm, mu, ri, rj, impulse, body_dyn, vel6,
-                     relax, tol, max_iter, nl, link_i, link_j, l_normal, wl, l_unilateral,
-                     l_impulse, l_order, mix=None, hot_sweeps=0):
-    """:func:`engine.solver.nlgs.iterate` on ``T`` domains (module docstring).
+def iterate_parallel(T, n, nl, C, B, L, relax, tol, max_iter, mix=None, hot_sweeps=0):
+    """:func:`engine.solver.nlgs.iterate` on ``T`` domains (module docstring), its arguments
+    as :func:`~engine.solver.kernels.iterate`'s.
 
-    ``c_i, c_j, body_dyn, vel6`` are in the local numbering of
+    ``C.i, C.j`` and ``B`` are in the local numbering of
     :func:`engine.solver.nlgs.layout`.  Runs on min(T, numba's thread count) threads; the
     result depends on ``T`` only.  With ``mix`` (:func:`engine.solver.anderson.domain_mixer`)
     the sweeps are mixed as in :mod:`engine.solver.anderson` (its passes on the same
@@ -334,39 +318,30 @@ def iterate_parallel(T, n, c_i, c_j, frame, w, gterm, mu, ri, rj, impulse, body_
     full sweep (:func:`iterate_groups`).
     """
     T = int(T)
+    body_dyn = B.dyn
     nloc = body_dyn.shape[0]
     group = np.empty(n, np.int32)
     start = np.empty(2 * T + 1, np.int64)
     mid = np.empty(2 * T, np.int64)
     order = np.empty(n, np.int32)
-    partition(n, T, c_i, c_j, body_dyn, nloc, group, start, order, mid)
-    g_i = np.empty(n, np.int32)
-    g_j = np.empty(n, np.int32)
-    g_frame = np.empty((n, 9))
-    g_w = np.empty((n, 4))
-    g_gterm = np.empty(n)
-    g_mu = np.empty(n)
-    g_ri = np.empty(n)
-    g_rj = np.empty(n)
-    g_imp = np.empty((n, 3))
-    gather(n, order, c_i, c_j, frame, w, gterm, mu, ri, rj, impulse,
-           g_i, g_j, g_frame, g_w, g_gterm, g_mu, g_ri, g_rj, g_imp)
-    acc = np.zeros((2 * T, 2))
+    partition(n, T, C.i, C.j, body_dyn, nloc, group, start, order, mid)
+    gC = Contacts(np.empty(n, np.int32), np.empty(n, np.int32), np.empty((n, 9)),
+                  np.empty((n, 4)), np.empty(n), np.empty(n), np.empty(n), np.empty(n),
+                  np.empty((n, 3)))
+    gather(n, order, C, gC)
+    G = Groups(start, mid, np.zeros((2 * T, 2)))
     with numba_threads(T):
         if mix is not None:
-            it, res = mix(T, n, g_i, g_j, g_frame, g_w, g_gterm, g_mu, g_ri, g_rj, g_imp,
-                          body_dyn, vel6, relax, start, mid, acc, PARALLEL_SWEEP_MIN_CONTACTS)
+            it, res = mix(T, n, gC, B, relax, G, PARALLEL_SWEEP_MIN_CONTACTS)
         else:
             hot_sweeps = int(hot_sweeps)
             m = n if hot_sweeps > 0 else 0
             q, hot, hstart = np.empty(m), np.empty(m, np.int32), np.empty(2 * T + 1, np.int64)
             it, res = in_chunks(lambda done, m_: iterate_groups(
-                T, n, start, mid, g_i, g_j, g_frame, g_w, g_gterm, g_mu, g_ri, g_rj, g_imp,
-                body_dyn, vel6, relax, tol, m_, nl, link_i, link_j, l_normal, wl, l_unilateral,
-                l_impulse, l_order, acc, hot_sweeps, HOT_FACTOR, q, hot, hstart,
+                T, n, nl, G, gC, B, L, relax, tol, m_, hot_sweeps, HOT_FACTOR, q, hot, hstart,
                 PARALLEL_SWEEP_MIN_CONTACTS), max_iter, tol, n + nl)
-    scatter(n, order, g_imp, impulse)
+    scatter(n, order, gC.impulse, C.impulse)
     return it, res
 
 
-__all__ = ["iterate_parallel", "partition", "iterate_groups", "sweep_groups"]
+__all__ = ["iterate_parallel", "partition", "iterate_groups", "sweep_groups", "Groups"]

@@ -422,8 +422,14 @@ def run_identity(arguments: dict) -> str:
             v = v.item()
         return v if isinstance(v, (bool, int, float, str, type(None))) else repr(v)
 
-    return json.dumps({k: plain(v) for k, v in arguments.items() if k not in NOT_IDENTITY},
+    return json.dumps({k: plain(v) for k, v in arguments.items() if k not in NOT_IDENTITY
+                       and not (k in LATER_ARGUMENTS and v == LATER_ARGUMENTS[k])},
                       sort_keys=True)
+
+
+#: Arguments added after checkpoints were first written, left out of a run's identity at
+#: these defaults, so that a checkpoint written before them still resumes.
+LATER_ARGUMENTS = {"chain_solve": False}
 
 
 def sample_identity(sample):

@@ -216,6 +216,8 @@ class Solver(Strict):
     threads: int = Field(1, ge=1, le=64,
                          description="NLGS threads (2 pays on tens of thousands of contacts)")
     acceleration: Acceleration = HotSweeps()
+    chain_solve: bool = Field(False, description="each wire solved as one chain in every NLGS "
+                                                 "sweep (needs anderson = 0 and threads = 1)")
     max_nonconverged: float = Field(0.25, ge=0, le=1)
 
     @property
@@ -228,7 +230,8 @@ class Solver(Strict):
 
     @model_validator(mode="after")
     def _together(self):
-        problem = solver_conflict(self.hot_sweeps, self.anderson, self.relax, self.threads)
+        problem = solver_conflict(self.hot_sweeps, self.anderson, self.relax, self.threads,
+                                  self.chain_solve)
         if problem:
             raise ValueError(problem)
         return self
@@ -617,7 +620,8 @@ def flat_model(cls: type[TestConfig]) -> type[Strict]:
                 fields[n] = (f.annotation, f)
 
     def together(self):
-        problem = solver_conflict(self.hot_sweeps, self.anderson, self.relax, self.threads)
+        problem = solver_conflict(self.hot_sweeps, self.anderson, self.relax, self.threads,
+                                  getattr(self, "chain_solve", False))
         if problem:
             raise ValueError(problem)
         return self

@@ -21,7 +21,9 @@ changed most after each sweep (:attr:`engine.model.Options.hot_sweeps`, docs/spe
 ``anderson`` (default 0) is the depth of the other NLGS acceleration
 (:mod:`engine.solver.anderson`), the default before 2026-11-25.  ``threads`` (default 1) is
 the NLGS thread count (:attr:`engine.model.Options.threads`); 2 pays only on samples of tens
-of thousands of contacts (docs/speed.md).
+of thousands of contacts (docs/speed.md).  ``chain_solve`` (default False) solves each wire
+as one chain in every sweep (:attr:`engine.model.Options.chain_solve`; with ``anderson`` = 0
+and one thread): on the rigid-wire cylinder at scale 0.3 it did not pay (docs/speed.md).
 
 The walls' pressure is data: one :class:`~engine.schedules.Ramp` in the drives of the top
 plate (and of the box's side walls), raised by :class:`~engine.schedules.FollowSchedules`;
@@ -129,6 +131,7 @@ def cylinder_triaxial(scale: float = 0.05, *, sample=None, preparation: str = "g
                       allow_dynamic: bool = False, dt: float = 5e-5, theta: float = 0.5,
                       tol: float = 3e-4, max_iter: int = 1000, relax: float = 1.0,
                       anderson: int = 0, threads: int = 1, hot_sweeps: int | None = None,
+                      chain_solve: bool = False,
                       mu: float = 0.5, mu_wall: float = 0.5, mu_wire: float = 0.3,
                       compaction_mu: float | None = None, iso_tol: float = 0.02,
                       iso_hold: int = 5, iso_max_steps: int = 4000, confine_every: int = 10,
@@ -204,7 +207,8 @@ def cylinder_triaxial(scale: float = 0.05, *, sample=None, preparation: str = "g
 
 #: The test's arguments the paper preparation's deposit takes as they are.
 _DEPOSIT_ARGS = ("dt", "theta", "tol", "max_iter", "relax", "anderson", "threads",
-                 "hot_sweeps", "mu", "mu_wall", "mu_wire", "max_nonconverged", "seed")
+                 "hot_sweeps", "chain_solve", "mu", "mu_wall", "mu_wire", "max_nonconverged",
+                 "seed")
 
 
 def _prepared(test, shape, builder, a):
@@ -385,7 +389,8 @@ def box_triaxial(scale: float = 0.05, *, sample=None, preparation: str = "geomet
                  target_I: float = 5e-4, allow_dynamic: bool = False, dt: float = 5e-5,
                  theta: float = 0.5, tol: float = 3e-4, max_iter: int = 1000,
                  relax: float = 1.0, anderson: int = 0, threads: int = 1,
-                 hot_sweeps: int | None = None, mu: float = 0.5, mu_wall: float = 0.0,
+                 hot_sweeps: int | None = None,
+                 chain_solve: bool = False, mu: float = 0.5, mu_wall: float = 0.0,
                  mu_wire: float = 0.3, compaction_mu: float | None = None,
                  wall_mass: float | None = None, iso_tol: float = 0.02, iso_hold: int = 5,
                  iso_max_steps: int = 4000, check_every: int = 10, ramp_steps: int = 400,
@@ -505,7 +510,8 @@ def _compiled(sc, st, cfg):
     _laws_for(sc, cfg.mu, cfg.mu_wall, cfg.mu_wire, st.has_wire)
     model, state = sc.compile(dt=cfg.dt, theta=cfg.theta, tol=cfg.tol, max_iter=cfg.max_iter,
                               relax=cfg.relax, anderson=cfg.anderson, threads=cfg.threads,
-                              hot_sweeps=cfg.hot_sweeps)
+                              hot_sweeps=cfg.hot_sweeps,
+                              chain_solve=cfg.chain_solve)
     return st.carry_over(model, state), state
 
 
@@ -638,7 +644,8 @@ def _params(rig, cfg, deposit) -> dict:
                 axial_strain=cfg.eps_max, strain_rate=cfg.rate, inertial_number=cfg.I,
                 loading_velocity=cfg.rate * rig.H0, dt=cfg.dt, theta=cfg.theta, tol=cfg.tol,
                 max_iter=cfg.max_iter, anderson=cfg.anderson, threads=cfg.threads,
-                hot_sweeps=cfg.hot_sweeps, mu=cfg.mu, mu_wall=cfg.mu_wall,
+                hot_sweeps=cfg.hot_sweeps, chain_solve=cfg.chain_solve, mu=cfg.mu,
+                mu_wall=cfg.mu_wall,
                 mu_wire=cfg.mu_wire, compaction_mu=cfg.compaction_mu, seed=cfg.seed,
                 n_sand=int(st.sand_radii.size), n_beads=st.n_beads, d_mean=rig.d_mean,
                 iso_reached=cfg.iso_reached, config=cfg.config.model_dump(mode="json"))

@@ -170,3 +170,29 @@ def test_slope_config_defaults_are_its_own():
     d = DepositConfig()
     assert (d.solver.dt, d.friction.mu_wall, d.preparation.sample) == (1e-4, 0.5, "slope")
     assert BoxConfig().friction.mu_wall == 0.0 and CylinderConfig().friction.mu_wall == 0.5
+
+
+@pytest.mark.parametrize("test", sorted(CONFIGS))
+def test_chain_solve_reaches_the_solver_and_conflicts_are_refused(test, monkeypatch, tmp_path):
+    """``chain_solve=True`` is a keyword of every test: it ends in the compiled Options (the
+    test's own Scene.compile), and with Anderson mixing or two threads it is refused in one
+    line before anything is built."""
+    from engine import Scene
+
+    with pytest.raises((InputError, ValueError)) as e:
+        getattr(experiments, test)(chain_solve=True, anderson=4, progress=False,
+                                   history=str(tmp_path / "h.h5"))
+    assert "chain_solve" in str(e.value) and "\n" not in str(e.value)
+    with pytest.raises((InputError, ValueError)):
+        CONFIGS[test].from_kwargs(chain_solve=True, threads=2)
+    seen = []
+
+    def compile_(self, *a, **kw):
+        seen.append(kw.get("chain_solve"))
+        raise RuntimeError("stop after compile")
+
+    monkeypatch.setattr(Scene, "compile", compile_)
+    with pytest.raises(RuntimeError, match="stop after compile"):
+        getattr(experiments, test)(scale=0.05, chain_solve=True, progress=False,
+                                   history=str(tmp_path / "h.h5"))
+    assert seen and seen[-1] is True

@@ -172,6 +172,25 @@ def prepare(n, c_i, c_j, key, frame, gap, ri, rj, w, gterm, impulse, body_dyn, v
 
 
 @njit(cache=True, inline="always")
+def local_velocity(i, j, r_i, r_j, nx, ny, nz, tx, ty, tz, sx, sy, sz, vel6):
+    """Local velocity (u_n, u_t, u_s) [m/s] of the contact between bodies i and j (lever
+    arms -r n, frame (n, t, s)), from the body velocities ``vel6``: u = Hᵀ v, with
+    u_t = t·Δv − s·Ω and u_s = s·Δv + t·Ω (Δv = v_i − v_j, Ω = r_i ω_i + r_j ω_j).  The
+    sweep's update (:func:`_contact`) and the natural-map residual
+    (:mod:`engine.solver.residual`) both read it here."""
+    dvx = vel6[i, 0] - vel6[j, 0]
+    dvy = vel6[i, 1] - vel6[j, 1]
+    dvz = vel6[i, 2] - vel6[j, 2]
+    ox = r_i * vel6[i, 3] + r_j * vel6[j, 3]
+    oy = r_i * vel6[i, 4] + r_j * vel6[j, 4]
+    oz = r_i * vel6[i, 5] + r_j * vel6[j, 5]
+    un = nx * dvx + ny * dvy + nz * dvz
+    ut = tx * dvx + ty * dvy + tz * dvz - (sx * ox + sy * oy + sz * oz)
+    us = sx * dvx + sy * dvy + sz * dvz + (tx * ox + ty * oy + tz * oz)
+    return un, ut, us
+
+
+@njit(cache=True, inline="always")
 def _contact(a, C, B, relax, line_j, guard=False, over=False):
     """Solve contact ``a`` of ``C`` (:class:`Contacts`) given the others (one Gauss–Seidel
     update, moving the velocities of ``B``, :class:`Bodies`); returns its two terms of the
@@ -204,16 +223,7 @@ def _contact(a, C, B, relax, line_j, guard=False, over=False):
     sz = frame[a, 8]
     r_i = ri[a]
     r_j = rj[a]
-    dvx = vel6[i, 0] - vel6[j, 0]
-    dvy = vel6[i, 1] - vel6[j, 1]
-    dvz = vel6[i, 2] - vel6[j, 2]
-    ox = r_i * vel6[i, 3] + r_j * vel6[j, 3]
-    oy = r_i * vel6[i, 4] + r_j * vel6[j, 4]
-    oz = r_i * vel6[i, 5] + r_j * vel6[j, 5]
-    # local velocity u = H^T v: u_t = t·Δv - s·Ω, u_s = s·Δv + t·Ω (Ω = r_i ω_i + r_j ω_j)
-    un = nx * dvx + ny * dvy + nz * dvz
-    ut = tx * dvx + ty * dvy + tz * dvz - (sx * ox + sy * oy + sz * oz)
-    us = sx * dvx + sy * dvy + sz * dvz + (tx * ox + ty * oy + tz * oz)
+    un, ut, us = local_velocity(i, j, r_i, r_j, nx, ny, nz, tx, ty, tz, sx, sy, sz, vel6)
     pn0 = impulse[a, 0]
     pt0 = impulse[a, 1]
     ps0 = impulse[a, 2]

@@ -27,8 +27,9 @@ from __future__ import annotations
 
 import math
 
-import numpy as np
 from numba import njit
+
+from .kernels import local_velocity
 
 __all__ = ["natural_residual", "natural_map"]
 
@@ -36,21 +37,10 @@ __all__ = ["natural_residual", "natural_map"]
 @njit(cache=True, inline="always")
 def _local(a, c_i, c_j, frame, ri, rj, vel6):
     """Local velocity (n, t, s) of contact ``a`` from the body velocities (the sweep's
-    u = Hᵀ v, without the gap term)."""
-    i = c_i[a]
-    j = c_j[a]
-    dvx = vel6[i, 0] - vel6[j, 0]
-    dvy = vel6[i, 1] - vel6[j, 1]
-    dvz = vel6[i, 2] - vel6[j, 2]
-    ox = ri[a] * vel6[i, 3] + rj[a] * vel6[j, 3]
-    oy = ri[a] * vel6[i, 4] + rj[a] * vel6[j, 4]
-    oz = ri[a] * vel6[i, 5] + rj[a] * vel6[j, 5]
-    un = frame[a, 0] * dvx + frame[a, 1] * dvy + frame[a, 2] * dvz
-    ut = (frame[a, 3] * dvx + frame[a, 4] * dvy + frame[a, 5] * dvz
-          - (frame[a, 6] * ox + frame[a, 7] * oy + frame[a, 8] * oz))
-    us = (frame[a, 6] * dvx + frame[a, 7] * dvy + frame[a, 8] * dvz
-          + (frame[a, 3] * ox + frame[a, 4] * oy + frame[a, 5] * oz))
-    return un, ut, us
+    :func:`~engine.solver.kernels.local_velocity`, without the gap term)."""
+    return local_velocity(c_i[a], c_j[a], ri[a], rj[a], frame[a, 0], frame[a, 1], frame[a, 2],
+                          frame[a, 3], frame[a, 4], frame[a, 5], frame[a, 6], frame[a, 7],
+                          frame[a, 8], vel6)
 
 
 @njit(cache=True)

@@ -192,15 +192,8 @@ def cylinder_triaxial(scale: float = 0.05, *, sample=None, preparation: str = "g
     _loading_rate(cfg, rig)
     rec, hist, stages = _recording(rig, cfg, "cylinder_triaxial", CYLINDER_UNITS,
                                    _cylinder_values(rig), cfg.confine_every)
-    try:
-        cfg.iso_reached = _cylinder_isotropic(stages, rig, cfg)
-        _loading(stages, rig, cfg)
-        if not stages.interrupted:
-            stages.run(rig.n_load, updaters=_cylinder_loading_updaters(rig, cfg))
-        _ended(stages, rig)
-    finally:
-        stages.close()
-        hist.close()
+    _run_stages(stages, hist, rig, cfg, lambda: _cylinder_isotropic(stages, rig, cfg),
+                lambda: _cylinder_loading_updaters(rig, cfg))
     res = _cylinder_result(rig, cfg, rec, deposit)
     return finish(res, stages, cfg.max_nonconverged)
 
@@ -423,21 +416,31 @@ def box_triaxial(scale: float = 0.05, *, sample=None, preparation: str = "geomet
     _loading_rate(cfg, rig)
     rec, hist, stages = _recording(rig, cfg, "box_triaxial", BOX_UNITS, _box_values(rig),
                                    cfg.check_every)
-    try:
-        cfg.iso_reached = _isotropic(stages, rig, cfg, cfg.check_every, _box_measure(rig),
-                                     [rig.faces])
-        _loading(stages, rig, cfg)
-        if not stages.interrupted:
-            stages.run(rig.n_load, updaters=[rig.faces])
-        _ended(stages, rig)
-    finally:
-        stages.close()
-        hist.close()
+    _run_stages(stages, hist, rig, cfg,
+                lambda: _isotropic(stages, rig, cfg, cfg.check_every, _box_measure(rig),
+                                   [rig.faces]),
+                lambda: [rig.faces])
     res = _box_result(rig, cfg, rec, deposit)
     return finish(res, stages, cfg.max_nonconverged)
 
 
 # -- the stages of both tests -----------------------------------------------------------------
+def _run_stages(stages, hist, rig, cfg, isotropic, loading_updaters):
+    """Both tests' stages: ``isotropic()`` (its answer in ``cfg.iso_reached``), the loading
+    with the updaters ``loading_updaters()`` makes once the loading has started (they read
+    its start), unless a stop request came, the end; the recording closed whatever
+    happens."""
+    try:
+        cfg.iso_reached = isotropic()
+        _loading(stages, rig, cfg)
+        if not stages.interrupted:
+            stages.run(rig.n_load, updaters=loading_updaters())
+        _ended(stages, rig)
+    finally:
+        stages.close()
+        hist.close()
+
+
 def _config(test, args, least_mu=0.0, why="") -> SimpleNamespace:
     """A test's arguments (its ``locals()`` on entry) turned into its config
     (:mod:`engine.experiments.config`, ``cfg.config``) and run from it: its keywords, with

@@ -471,9 +471,29 @@ def _run_dask(fn, todo, client, fixed, n_workers, finished, failed, *, retries=1
             except Exception:  # noqa: BLE001 - a closed client has nothing to undo
                 pass
         if own_client is not None:
+            _mute_workers(own_client)
             own_client.close()
         if own_cluster is not None:
             own_cluster.close()
+
+
+def _mute_workers(client):
+    """Before a cluster of ours is closed: its workers stop logging, so that a worker still
+    busy with a case (after Ctrl-C) does not print a traceback when its heartbeat finds the
+    scheduler gone (seen under load: "Failed to communicate with scheduler during
+    heartbeat").  The sweep's own errors reach the table, not these logs."""
+    try:
+        client.run(_silence_distributed)
+    except Exception:  # noqa: BLE001 - a closing cluster may refuse; the close goes on
+        pass
+
+
+def _silence_distributed():
+    import logging
+
+    for name in ("distributed", "distributed.worker", "distributed.nanny", "distributed.core",
+                 "distributed.comm"):
+        logging.getLogger(name).setLevel(logging.CRITICAL)
 
 
 def _failed_last(fut, row, msg, failed):

@@ -30,8 +30,10 @@ def core_fraction(c, r, cyl):
     m = 4 * r.max()
     top = (c[:, 2] + r).max()
     rr = np.hypot(c[:, 0], c[:, 1])
-    if top <= 2 * m:
-        return None                     # a pile lower than 8 r_max has no core by this rule
+    if top - 2 * m < 4 * r.max():
+        # a pile lower than 12 r_max has no core by this rule: a thinner slice holds a few
+        # grains, whose whole volumes count (0.0 to 0.95 on the 1 000-grain piles, 3.2 mm)
+        return None
     k = (rr < cyl.radius - m) & (c[:, 2] > m) & (c[:, 2] < top - m)
     return float((4 / 3 * np.pi * r[k] ** 3).sum() / (np.pi * (cyl.radius - m) ** 2 * (top - 2 * m)))
 

@@ -285,10 +285,14 @@ def _heap_pop(keys, vals, o, n):
     return key, val, n
 
 
-#: Pockets are kept in this many heaps by the largest grain they may still take (pmax):
-#: class c holds the pockets with pmax <= ub[c], so a grain of radius r only looks at the
-#: classes with ub[c] > r and never at the pockets that only smaller grains fit.
+#: Radius classes.  Pockets are kept in N_CLASSES² heaps by both bounds of the grains they
+#: may still take: the largest (pmax: heap row ``hi``, the class whose bound ub[hi] >= pmax)
+#: and the smallest (``lo``: the lowest sample radius ub[lo] not known not to fit; every
+#: sample below it was found not to fit, for good).  A grain of radius r only looks at the
+#: heaps with ub[lo - 1] < r < ub[hi], so it visits neither the pockets that only smaller
+#: grains fit nor those that only larger ones fit.
 N_CLASSES = 32
+N_HEAPS = N_CLASSES * N_CLASSES
 
 
 @njit(cache=True)
@@ -315,8 +319,8 @@ def _class_of(p, ub):
 def _classify(a, b, c, sg, r_lo, r_hi, X, Y, Z, R, head, nxt, glo, inv_h, gn,
               wall_n, wall_d, cyl, box, top, work, pos):
     """(alive, key) of a pocket: dead if, for the smallest grain (or, when that one has no
-    solution, the largest), its position overlaps a sphere or is unstable; key = z of the
-    centre for the smallest grain, or a lower bound."""
+    solution, the largest), its position overlaps a sphere or is unstable; key = z − r_lo
+    for the smallest grain's centre, or a lower bound."""
     for r in (r_lo, r_hi):
         if solve_pocket(a, b, c, sg, r, X, Y, Z, R, wall_n, wall_d, cyl, work, pos):
             if not stable(a, b, c, pos[0], pos[1], pos[2], r, X, Y, Z, R, wall_n, cyl, work):
@@ -324,14 +328,14 @@ def _classify(a, b, c, sg, r_lo, r_hi, X, Y, Z, R, head, nxt, glo, inv_h, gn,
             if not free(pos[0], pos[1], pos[2], r, X, Y, Z, R, head, nxt, glo, inv_h, gn):
                 return False, 0.0
             if r == r_lo:
-                return True, pos[2]
+                return True, pos[2] - r_lo
             # no solution for the smallest grain: the lowest support is a lower bound
             zmin = pos[2]
             for ck in (a, b, c):
                 if ck >= 0 and Z[ck] < zmin:
                     zmin = Z[ck]
-            # keep key + (r − r_lo) a lower bound of the height for every r (see the kernel)
-            return True, zmin - (r_hi - r_lo)
+            # keep key + r a lower bound of the height for every r <= r_hi (see _best_pocket)
+            return True, zmin - r_hi
     return False, 0.0
 
 
@@ -340,64 +344,162 @@ ALL_SAMPLES = (1 << (N_CLASSES - 1)) - 1
 
 
 @njit(cache=True, _nrt=False)
+def _low_bit(mask):
+    """The lowest sample a pocket may still take (its ``lo`` class); N_CLASSES - 1 when no
+    sample fits."""
+    j = 0
+    while j < N_CLASSES - 1 and not (mask >> j) & 1:
+        j += 1
+    return j
+
+
+@njit(cache=True, _nrt=False)
+def _heap_of(pmax, mask, ub):
+    """The heap of a pocket: lo * N_CLASSES + hi."""
+    return _low_bit(mask) * N_CLASSES + _class_of(pmax, ub)
+
+
+@njit(cache=True, _nrt=False)
+def _fits(a, b, c, sg, r, X, Y, Z, R, head, nxt, glo, inv_h, gn, wall_n, wall_d, cyl, box,
+          top, work, pos):
+    """Does a grain of radius r fit the pocket (a tangent position inside the container,
+    stable, overlapping nothing)?"""
+    return (solve_pocket(a, b, c, sg, r, X, Y, Z, R, wall_n, wall_d, cyl, work, pos)
+            and inside(pos[0], pos[1], pos[2], r, box, cyl, top)
+            and stable(a, b, c, pos[0], pos[1], pos[2], r, X, Y, Z, R, wall_n, cyl, work)
+            and free(pos[0], pos[1], pos[2], r, X, Y, Z, R, head, nxt, glo, inv_h, gn))
+
+
+@njit(cache=True, _nrt=False)
+def _raise_floor(a, b, c, sg, r, mask, ub, X, Y, Z, R, head, nxt, glo, inv_h, gn, wall_n,
+                 wall_d, cyl, box, top, work, pos):
+    """(mask, j) of a pocket where a grain of radius r does not fit: the sample radii below
+    r are tried from the lowest one still set up, each that does not fit cleared (for good:
+    spheres are only added, the rest is fixed by the supports), until one fits; j is that
+    one (or the first sample >= r).  The pocket's ``lo`` class rises with them."""
+    j = _low_bit(mask)
+    while j < N_CLASSES - 1 and ub[j] < r:
+        if (mask >> j) & 1:
+            if _fits(a, b, c, sg, ub[j], X, Y, Z, R, head, nxt, glo, inv_h, gn, wall_n,
+                     wall_d, cyl, box, top, work, pos):
+                break
+            mask &= ~(1 << j)
+        j += 1
+    return mask, j
+
+
+@njit(cache=True, _nrt=False)
+def _largest_fit(a, b, c, sg, r_min, r_max, mask, ub, X, Y, Z, R, head, nxt, glo, inv_h, gn,
+                 wall_n, wall_d, cyl, box, top, work, pos):
+    """(j, mask): the largest sample radius r_min < ub[j] < r_max that still fits the
+    pocket (−1 if none), trying them from the largest down; each sample that does not fit
+    is cleared from the mask (for good: spheres are only added, the rest is fixed by the
+    supports)."""
+    for j in range(N_CLASSES - 2, -1, -1):
+        if ub[j] <= r_min:
+            break
+        if ub[j] >= r_max or not (mask >> j) & 1:
+            continue
+        if _fits(a, b, c, sg, ub[j], X, Y, Z, R, head, nxt, glo, inv_h, gn, wall_n, wall_d,
+                 cyl, box, top, work, pos):
+            return j, mask
+        mask &= ~(1 << j)
+    return -1, mask
+
+
+@njit(cache=True, _nrt=False)
 def _fit_above(a, b, c, sg, r, mask, ub, X, Y, Z, R, head, nxt, glo, inv_h, gn, wall_n,
                wall_d, cyl, box, top, work, pos):
-    """(pmax, mask) of a pocket where a grain of radius r does not fit: the sample radii
-    ub[j] > r are tried from the largest down until one fits (a sample that does not fit
-    never will: spheres are only added, and the rest is fixed by the supports), and pmax is
-    the next class bound above it (r when none fits).  A grain between two samples that fits
-    where neither does is the only one this misses."""
-    for j in range(N_CLASSES - 2, -1, -1):
-        if ub[j] <= r:
-            break
-        if not (mask >> j) & 1:
-            continue
-        rj = ub[j]
-        if (solve_pocket(a, b, c, sg, rj, X, Y, Z, R, wall_n, wall_d, cyl, work, pos)
-                and inside(pos[0], pos[1], pos[2], rj, box, cyl, top)
-                and stable(a, b, c, pos[0], pos[1], pos[2], rj, X, Y, Z, R, wall_n, cyl, work)
-                and free(pos[0], pos[1], pos[2], rj, X, Y, Z, R, head, nxt, glo, inv_h, gn)):
-            return ub[j + 1], mask
-        mask &= ~(1 << j)
-    return r, mask
+    """(pmax, mask) of a pocket where a grain of radius r does not fit: pmax is the class
+    bound above the largest sample radius > r that still fits (r when none does).  A grain
+    between two samples that fits where neither does is the only one this misses."""
+    j, mask = _largest_fit(a, b, c, sg, r, np.inf, mask, ub, X, Y, Z, R, head, nxt, glo,
+                           inv_h, gn, wall_n, wall_d, cyl, box, top, work, pos)
+    return (ub[j + 1] if j >= 0 else r), mask
+
+
+@njit(cache=True, _nrt=False)
+def _fit_below(a, b, c, sg, r, pm, mask, ub, X, Y, Z, R, head, nxt, glo, inv_h, gn, wall_n,
+               wall_d, cyl, box, top, work, pos):
+    """(pmax, mask) of a pocket where a grain of radius r < pm does not fit: if no sample
+    between r and pm still fits, pmax becomes the class bound above the largest sample
+    below r that does (or r); if none fits at all, the mask is 0 (the pocket is dead)."""
+    j, mask = _largest_fit(a, b, c, sg, -np.inf, pm, mask, ub, X, Y, Z, R, head, nxt, glo,
+                           inv_h, gn, wall_n, wall_d, cyl, box, top, work, pos)
+    if j < 0:
+        return r, 0
+    if ub[j] > r:
+        return pm, mask
+    return (ub[j + 1] if ub[j + 1] < r else r), mask
+
+
+@njit(cache=True, _nrt=False)
+def _aux_down(ak, av, ah, na, i):
+    """Sift entry i of the heap of heap tops (ak, av, ah)[:na] down."""
+    while True:
+        l = 2 * i + 1
+        if l >= na:
+            return
+        m = l
+        if l + 1 < na and _before(ak[l + 1], av[l + 1], ak[l], av[l]):
+            m = l + 1
+        if not _before(ak[m], av[m], ak[i], av[i]):
+            return
+        ak[m], ak[i] = ak[i], ak[m]
+        av[m], av[i] = av[i], av[m]
+        ah[m], ah[i] = ah[i], ah[m]
+        i = m
 
 
 @njit(cache=True, _nrt=False)
 def _best_pocket(r, r_lo, r_hi, ub, hk, hv, off, nh, tk, tv, pa, pb, pc, ps, pmax, pblk,
-                 pmask, back, backk, X, Y, Z, R, head, nxt, glo, inv_h, gn, wall_n, wall_d, cyl,
-                 box, top, work, pos):
+                 pmask, pfl, back, backk, ak, av, ah, X, Y, Z, R, head, nxt, glo, inv_h, gn,
+                 wall_n, wall_d, cyl, box, top, work, pos):
     """The lowest pocket that takes a grain of radius r: (pocket or −1, count of the
-    pockets to push back, in back/backk with their keys; back holds every heap entry).
+    pockets to push back, in back/backk with their keys).
 
-    Pockets are popped in key order from the classes that may take r until no lower one can
-    beat the best found: a stable pocket rises at least as fast as the grain grows
-    (dz/dr = Σλ_k >= 1 with e_z = Σ λ_k n_k, |n_k| = 1), so key + (r − r_lo) bounds its
-    height from below.  The lowest centre wins, ties to the lowest pocket id, whatever the
-    order of the classes."""
+    Pockets are popped in key order from the heaps that may take r until no lower one can
+    beat the best found.  A key is z − ρ, the height of the centre of a grain of some
+    radius ρ <= r less ρ: a stable pocket rises at least as fast as the grain grows
+    (dz/dr = Σλ_k >= 1 with e_z = Σ λ_k n_k, |n_k| = 1), so key + r bounds its height
+    from below.  The heaps visited are merged through a heap of their tops (ak, av, ah).
+    The lowest centre wins, ties to the lowest pocket id, whatever the order of the heaps.
+    """
     best, bestz, bestk, nback = -1, np.inf, 0.0, 0
-    lift = r - r_lo
+    g = 0                               # samples below r: ub[0..g-1]
+    while g < N_CLASSES - 1 and ub[g] < r:
+        g += 1
     c0 = 0
     while ub[c0] <= r:
         c0 += 1
-    while True:
-        cl = -1
-        for c in range(c0, N_CLASSES):
-            if nh[c] > 0 and (cl < 0 or _before(tk[c], tv[c], tk[cl], tv[cl])):
-                cl = c
-        if cl < 0 or tk[cl] + lift > bestz:
-            break
-        o = off[cl]
-        key, v, nh[cl] = _heap_pop(hk, hv, o, nh[cl])
-        if nh[cl] > 0:
-            tk[cl], tv[cl] = hk[o], hv[o]
+    na = 0
+    for lo in range(g + 1):
+        for hi in range(c0, N_CLASSES):
+            h = lo * N_CLASSES + hi
+            if nh[h] > 0:
+                ak[na], av[na], ah[na] = tk[h], tv[h], h
+                na += 1
+    for i in range(na // 2 - 1, -1, -1):
+        _aux_down(ak, av, ah, na, i)
+    while na > 0 and ak[0] + r <= bestz:
+        h = ah[0]
+        o = off[h]
+        key, v, nh[h] = _heap_pop(hk, hv, o, nh[h])
+        if nh[h] > 0:
+            tk[h], tv[h] = hk[o], hv[o]
+            ak[0], av[0] = tk[h], tv[h]
         else:
-            tk[cl], tv[cl] = np.inf, -1
+            tk[h], tv[h] = np.inf, -1
+            na -= 1
+            ak[0], av[0], ah[0] = ak[na], av[na], ah[na]
+        _aux_down(ak, av, ah, na, 0)
         a, b, c, sg = pa[v], pb[v], pc[v], ps[v]
-        keep, cand, fit = True, False, False
-        if r < pmax[v] and solve_pocket(a, b, c, sg, r, X, Y, Z, R, wall_n, wall_d, cyl, work,
-                                        pos):
-            if pos[2] <= bestz and not inside(pos[0], pos[1], pos[2], r, box, cyl, top):
-                fit = True
+        keep, cand, fit, failed, blocked = True, False, False, False, False
+        if r < pmax[v]:
+            if not solve_pocket(a, b, c, sg, r, X, Y, Z, R, wall_n, wall_d, cyl, work, pos):
+                failed = True
+            elif pos[2] <= bestz and not inside(pos[0], pos[1], pos[2], r, box, cyl, top):
+                fit, failed = True, True
             elif pos[2] <= bestz:
                 # the sphere that blocked it last still does (spheres are never removed):
                 # nothing new is learnt, no grid search
@@ -407,6 +509,7 @@ def _best_pocket(r, r_lo, r_hi, ub, hk, hv, off, nh, tk, tv, pa, pb, pc, ps, pma
                     q = overlapping(pos[0], pos[1], pos[2], r, X, Y, Z, R, head, nxt, glo,
                                     inv_h, gn)
                 if q >= 0:
+                    failed, blocked = True, True
                     # a sphere above the centre: larger grains, which sit higher, hit it too
                     # (skip them)
                     above = Z[q] > pos[2]
@@ -416,17 +519,44 @@ def _best_pocket(r, r_lo, r_hi, ub, hk, hv, off, nh, tk, tv, pa, pb, pc, ps, pma
                         # a new blocking sphere: dead if the smallest grain no longer fits;
                         # beside or below the centre, which larger grains may fit is sampled
                         pblk[v] = q
+                        pfl[v] = -1
                         fit = not above
                         keep, key = _classify(a, b, c, sg, r_lo, r_hi, X, Y, Z, R, head, nxt,
                                               glo, inv_h, gn, wall_n, wall_d, cyl, box, top,
                                               work, pos)
-                elif (pos[2] < bestz or v < best) and stable(
-                        a, b, c, pos[0], pos[1], pos[2], r, X, Y, Z, R, wall_n, cyl, work):
-                    cand = True
+                elif (pos[2] < bestz or v < best):
+                    if stable(a, b, c, pos[0], pos[1], pos[2], r, X, Y, Z, R, wall_n, cyl, work):
+                        cand = True
+                    else:
+                        failed = True
         if fit and keep and r < pmax[v]:
             pmax[v], pmask[v] = _fit_above(a, b, c, sg, r, pmask[v], ub, X, Y, Z, R, head, nxt,
                                            glo, inv_h, gn, wall_n, wall_d, cyl, box, top, work,
                                            pos)
+        if failed and keep:
+            # which smaller grains do not fit either: the pocket's lo class rises
+            lo = _low_bit(pmask[v])
+            if lo != pfl[v] and ub[lo] < r:
+                pmask[v], pfl[v] = _raise_floor(a, b, c, sg, r, pmask[v], ub, X, Y, Z, R,
+                                                head, nxt, glo, inv_h, gn, wall_n, wall_d,
+                                                cyl, box, top, work, pos)
+                new = _low_bit(pmask[v])
+                if pmask[v] == 0:
+                    keep = False
+                elif new > lo and solve_pocket(a, b, c, sg, ub[new - 1], X, Y, Z, R, wall_n,
+                                               wall_d, cyl, work, pos):
+                    # only grains above ub[new - 1] visit it now: a higher bound
+                    kz = pos[2] - ub[new - 1]
+                    if kz > key:
+                        key = kz
+        if blocked and keep and r < pmax[v]:
+            # do larger grains still fit?  If not, the largest sample below r that fits
+            # bounds the pocket from above
+            pmax[v], pmask[v] = _fit_below(a, b, c, sg, r, pmax[v], pmask[v], ub, X, Y, Z, R,
+                                           head, nxt, glo, inv_h, gn, wall_n, wall_d, cyl, box,
+                                           top, work, pos)
+            if pmask[v] == 0:
+                keep = False
         if cand:
             if best >= 0:
                 back[nback], backk[nback] = best, bestk
@@ -439,13 +569,24 @@ def _best_pocket(r, r_lo, r_hi, ub, hk, hv, off, nh, tk, tv, pa, pb, pc, ps, pma
 
 
 @njit(cache=True, _nrt=False)
-def _push_back(back, backk, nback, pmax, ub, hk, hv, off, nh, tk, tv):
-    """Push the popped pockets back, each on the heap of its class (room reserved)."""
+def _back_heaps(back, nback, pmax, pmask, ub, bh, need):
+    """The heap of each popped pocket (bh) and how many go back on each heap (need)."""
+    for h in range(N_HEAPS):
+        need[h] = 0
     for q in range(nback):
-        c = _class_of(pmax[back[q]], ub)
-        o = off[c]
-        nh[c] = _heap_push(hk, hv, o, nh[c], backk[q], back[q])
-        tk[c], tv[c] = hk[o], hv[o]
+        h = _heap_of(pmax[back[q]], pmask[back[q]], ub)
+        bh[q] = h
+        need[h] += 1
+
+
+@njit(cache=True, _nrt=False)
+def _push_back(back, backk, bh, nback, hk, hv, off, nh, tk, tv):
+    """Push the popped pockets back, each on its heap (room reserved)."""
+    for q in range(nback):
+        h = bh[q]
+        o = off[h]
+        nh[h] = _heap_push(hk, hv, o, nh[h], backk[q], back[q])
+        tk[h], tv[h] = hk[o], hv[o]
 
 
 @njit(cache=True, _nrt=False)
@@ -496,12 +637,12 @@ def _walls_near(s, reach, X, Y, Z, R, wall_n, wall_d, nwall, cyl, walls):
 
 @njit(cache=True, _nrt=False)
 def _new_pockets(s, nn, nw, nbr, walls, reach, r_lo, r_hi, npk, pa, pb, pc, ps, pmax, pblk,
-                 pmask, hk, hv, off, nh, tk, tv, X, Y, Z, R, head, nxt, glo, inv_h, gn, wall_n,
+                 pmask, pfl, hk, hv, off, nh, tk, tv, X, Y, Z, R, head, nxt, glo, inv_h, gn, wall_n,
                  wall_d, cyl, box, top, work, pos):
     """The live pockets of the triples (s, a, b), (s, a, wall), (s, wall, wall), stored from
-    pocket npk on and pushed on the last class's heap (room for 2 per pair reserved);
-    returns the new pocket count."""
-    top_c = N_CLASSES - 1
+    pocket npk on and pushed on the heap of the pockets that may take any grain (lo 0,
+    hi N_CLASSES - 1; room for 2 per pair reserved); returns the new pocket count."""
+    top_c = N_CLASSES - 1           # = _heap_of(np.inf, ALL_SAMPLES, ub)
     o = off[top_c]
     for ia in range(nn + nw):
         ca = nbr[ia] if ia < nn else walls[ia - nn]
@@ -525,6 +666,7 @@ def _new_pockets(s, nn, nw, nbr, walls, reach, r_lo, r_hi, npk, pa, pb, pc, ps, 
                 pa[npk], pb[npk], pc[npk], ps[npk], pmax[npk] = s, ca, cb, sg, np.inf
                 pblk[npk] = -1
                 pmask[npk] = ALL_SAMPLES
+                pfl[npk] = -1
                 nh[top_c] = _heap_push(hk, hv, o, nh[top_c], key, npk)
                 npk += 1
     tk[top_c], tv[top_c] = (hk[o], hv[o]) if nh[top_c] > 0 else (np.inf, -1)
@@ -551,7 +693,7 @@ def _reserve(hk, hv, off, cap, nh, used, c, need):
         k2 = np.empty(size)
         v2 = np.empty(size, np.int64)
         used = 0
-        for d in range(N_CLASSES):
+        for d in range(N_HEAPS):
             k2[used:used + nh[d]] = hk[off[d]:off[d] + nh[d]]
             v2[used:used + nh[d]] = hv[off[d]:off[d] + nh[d]]
             off[d] = used
@@ -583,15 +725,19 @@ def deposit_kernel(radii, n_obs, X, Y, Z, R, wall_n, wall_d, nwall, cyl, box, to
     pos = np.zeros(3)
     r_lo, r_hi = radii.min(), radii.max()
     ub = _class_bounds(r_lo, r_hi)
-    # the classes' heaps: segments [off[c], off[c] + cap[c]) of one pool
-    cap = np.full(N_CLASSES, 256, np.int64)
-    off = np.arange(N_CLASSES) * 256
-    used = N_CLASSES * 256
+    # the heaps: segments [off[h], off[h] + cap[h]) of one pool
+    cap = np.full(N_HEAPS, 16, np.int64)
+    off = np.arange(N_HEAPS) * 16
+    used = N_HEAPS * 16
     hk = np.empty(2 * used)
     hv = np.empty(2 * used, np.int64)
-    nh = np.zeros(N_CLASSES, np.int64)
-    tk = np.full(N_CLASSES, np.inf)         # each class's lowest key and its pocket
-    tv = np.full(N_CLASSES, -1, np.int64)
+    nh = np.zeros(N_HEAPS, np.int64)
+    tk = np.full(N_HEAPS, np.inf)           # each heap's lowest key and its pocket
+    tv = np.full(N_HEAPS, -1, np.int64)
+    ak = np.empty(N_HEAPS)                  # the tops of the heaps a grain visits
+    av = np.empty(N_HEAPS, np.int64)
+    ah = np.empty(N_HEAPS, np.int64)
+    need_h = np.zeros(N_HEAPS, np.int64)
     pcap = 1 << 16
     pa = np.empty(pcap, np.int64)
     pb = np.empty(pcap, np.int64)
@@ -600,10 +746,12 @@ def deposit_kernel(radii, n_obs, X, Y, Z, R, wall_n, wall_d, nwall, cyl, box, to
     pmax = np.empty(pcap)          # grains this large or larger overlap something there
     pblk = np.empty(pcap, np.int64)  # the sphere that last blocked the pocket, or -1
     pmask = np.empty(pcap, np.int64)  # bit j: a grain of radius ub[j] may still fit
+    pfl = np.empty(pcap, np.int64)    # the lowest sample last found to fit, or -1
     npk = 0
     nbr = np.empty(4096, np.int64)
     back = np.empty(4096, np.int64)
     backk = np.empty(4096)
+    bh = np.empty(4096, np.int64)
     walls = np.empty(nwall, np.int64)
     n_placed = 0
     n_drop = 0
@@ -615,12 +763,16 @@ def deposit_kernel(radii, n_obs, X, Y, Z, R, wall_n, wall_d, nwall, cyl, box, to
             if back.shape[0] < live + 1:
                 back = np.empty(2 * (live + 1), np.int64)
                 backk = np.empty(2 * (live + 1))
+                bh = np.empty(2 * (live + 1), np.int64)
             best, nback = _best_pocket(r, r_lo, r_hi, ub, hk, hv, off, nh, tk, tv, pa, pb, pc,
-                                       ps, pmax, pblk, pmask, back, backk, X, Y, Z, R, head, nxt, glo,
-                                       inv_h, gn, wall_n, wall_d, cyl, box, top, work, pos)
-            for c in range(N_CLASSES):
-                hk, hv, used = _reserve(hk, hv, off, cap, nh, used, c, nback)
-            _push_back(back, backk, nback, pmax, ub, hk, hv, off, nh, tk, tv)
+                                       ps, pmax, pblk, pmask, pfl, back, backk, ak, av, ah, X,
+                                       Y, Z, R, head, nxt, glo, inv_h, gn, wall_n, wall_d, cyl,
+                                       box, top, work, pos)
+            _back_heaps(back, nback, pmax, pmask, ub, bh, need_h)
+            for h in range(N_HEAPS):
+                if need_h[h] > 0:
+                    hk, hv, used = _reserve(hk, hv, off, cap, nh, used, h, need_h[h])
+            _push_back(back, backk, bh, nback, hk, hv, off, nh, tk, tv)
             if best >= 0:
                 solve_pocket(pa[best], pb[best], pc[best], ps[best], r, X, Y, Z, R,
                              wall_n, wall_d, cyl, work, pos)
@@ -661,10 +813,10 @@ def deposit_kernel(radii, n_obs, X, Y, Z, R, wall_n, wall_d, nwall, cyl, box, to
             new = max(2 * pcap, npk + need)
             pa, pb, pc = _grown(pa, npk, new), _grown(pb, npk, new), _grown(pc, npk, new)
             ps, pmax, pblk = _grown(ps, npk, new), _grown(pmax, npk, new), _grown(pblk, npk, new)
-            pmask = _grown(pmask, npk, new)
+            pmask, pfl = _grown(pmask, npk, new), _grown(pfl, npk, new)
             pcap = new
         hk, hv, used = _reserve(hk, hv, off, cap, nh, used, N_CLASSES - 1, need)
         npk = _new_pockets(s, nn, nw, nbr, walls, reach, r_lo, r_hi, npk, pa, pb, pc, ps,
-                           pmax, pblk, pmask, hk, hv, off, nh, tk, tv, X, Y, Z, R, head, nxt, glo,
+                           pmax, pblk, pmask, pfl, hk, hv, off, nh, tk, tv, X, Y, Z, R, head, nxt, glo,
                            inv_h, gn, wall_n, wall_d, cyl, box, top, work, pos)
     return n_placed, 0, n_drop

@@ -9,10 +9,10 @@ The tangency position is the closed-form intersection of two planes and a sphere
 differences of the three sphere equations are planes); a cylinder side is followed by a
 fixed point on its tangent plane.
 
-Pockets live in priority queues keyed by the height they give the smallest grain, one per
-class of the largest grain they may still take, so each placement only looks at the lowest
-few of the classes that may take it; a pocket is dropped once the smallest grain no longer
-fits in it.  Because the sample is only geometrically admissible, it is meant to be
+Pockets live in priority queues keyed by a lower bound of the height they give a grain,
+one per pair of classes of the smallest and the largest grain they may still take, so each
+placement only looks at the lowest pockets of the queues that may take it; a pocket is
+dropped once no sample radius fits it (docs/prep.md).  Because the sample is only geometrically admissible, it is meant to be
 relaxed under gravity afterwards (:func:`engine.prep.relax`).
 """
 from __future__ import annotations

@@ -55,7 +55,8 @@ test: $(STAMP) sysdeps
 demo: $(STAMP) sysdeps
 	$(VENV)/bin/nscd demo --out out/demo
 
-## make bench: every benchmark (about 45 min on 2 idle cores); each prints its figures and
+## make bench: every benchmark (about 2 h 30 min on 2 idle cores, 1-2 h of it the two
+## paper-scale runs of bench_paper_scale.py); each prints its figures and
 ## writes its JSON under bench/results/ (bench/README.md says what each one measures)
 bench: $(STAMP) sysdeps
 	$(PY) bench/bench_core.py
@@ -72,6 +73,8 @@ bench: $(STAMP) sysdeps
 	$(PY) bench/bench_experiments.py
 	$(PY) bench/bench_sweep.py
 	$(PY) bench/bench_stop.py
+	$(PY) bench/bench_paper_scale.py --test slope
+	$(PY) bench/bench_paper_scale.py --test mould
 
 ## make bench-peers: the same scenes in Siconos and Yade (installed with apt if missing)
 bench-peers: $(STAMP)

@@ -11,12 +11,12 @@ strain, seed 0, ElasticWire k = 1 N) or the slope deposit (``--test slope``: sca
 
 For each: wall time, recorded steps, mean NLGS sweeps per recorded step, steps at
 max_iter, and the answer (cylinder: the final deviator q and wire equivalent stress; slope:
-the maximum slope); the same seed, so the three answers differ by the solver's path
-within its tolerance, not by the seed spread.  The tests have no
-``chain_solve`` keyword yet: ``Scene.compile`` is wrapped for the chain runs.
+the maximum slope); the same seed, so the answers differ by the solver's path within its
+tolerance, not by the seed spread.  ``--runs`` picks some of the four (for example
+``plain_hot2,chains_hot2`` for a long run).
 
 Run:  .venv/bin/python bench/bench_chains.py [--test cylinder|slope] [--law elastic|rigid]
-      [--scale S] [--strain E] [--steps N]
+      [--scale S] [--strain E] [--steps N] [--runs plain_hot2,chains_hot2]
 Writes bench/results/chains-<YYYYmmdd-HHMM>.json.
 """
 from __future__ import annotations
@@ -33,32 +33,29 @@ sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
 import numpy as np  # noqa: E402
 
 import record  # noqa: E402
-from engine import Scene, io  # noqa: E402
+from engine import io  # noqa: E402
 from engine import laws  # noqa: E402
 from engine.experiments import cylinder_triaxial, slope_deposit  # noqa: E402
 
 
+#: The four ways: name -> (chain_solve, hot_sweeps).
+RUNS = {"plain_hot2": (False, 2), "plain_hot0": (False, 0), "chains_hot0": (True, 0),
+        "chains_hot2": (True, 2)}
+
+
 def one(name, a, out_dir, chain_solve, hot_sweeps):
-    compile_ = Scene.compile
-
-    def with_chains(self, *a, **kw):
-        kw["chain_solve"] = chain_solve
-        return compile_(self, *a, **kw)
-
-    Scene.compile = with_chains
-    try:
-        h = str(Path(out_dir) / f"{name}.h5")
-        t0 = time.perf_counter()
-        law = laws.RigidWire() if a.law == "rigid" else laws.ElasticWire(stiffness=1.0)
-        if a.test == "cylinder":
-            res = cylinder_triaxial(a.scale, axial_strain=a.strain, history=h, frames=0,
-                                    hot_sweeps=hot_sweeps, wire_law=law, progress=False)
-        else:
-            res = slope_deposit(a.scale, steps=a.steps, history=h, frames=0, wire_law=law,
-                                hot_sweeps=hot_sweeps, progress=False, max_nonconverged=1.0)
-        wall = time.perf_counter() - t0
-    finally:
-        Scene.compile = compile_
+    h = str(Path(out_dir) / f"{name}.h5")
+    t0 = time.perf_counter()
+    law = laws.RigidWire() if a.law == "rigid" else laws.ElasticWire(stiffness=1.0)
+    if a.test == "cylinder":
+        res = cylinder_triaxial(a.scale, axial_strain=a.strain, history=h, frames=0,
+                                hot_sweeps=hot_sweeps, chain_solve=chain_solve, wire_law=law,
+                                progress=False)
+    else:
+        res = slope_deposit(a.scale, steps=a.steps, history=h, frames=0, wire_law=law,
+                            hot_sweeps=hot_sweeps, chain_solve=chain_solve, progress=False,
+                            max_nonconverged=1.0)
+    wall = time.perf_counter() - t0
     rec = io.read_history(h, frames=False)
     its = np.asarray(rec.iterations)
     conv = res.convergence
@@ -85,7 +82,13 @@ def main(argv=None) -> int:
                     help="sample scale (default 0.1 cylinder, 0.05 slope)")
     ap.add_argument("--strain", type=float, default=0.05, help="cylinder: axial strain")
     ap.add_argument("--steps", type=int, default=2000, help="slope: steps")
+    ap.add_argument("--runs", default=",".join(RUNS),
+                    help=f"comma-separated, among {', '.join(RUNS)}")
     a = ap.parse_args(argv)
+    names = [x.strip() for x in a.runs.split(",") if x.strip()]
+    bad = [x for x in names if x not in RUNS]
+    if bad or not names:
+        ap.error(f"--runs: unknown {bad or a.runs!r}; choose among {', '.join(RUNS)}")
     if a.scale is None:
         a.scale = 0.1 if a.test == "cylinder" else 0.05
     busy = record.Busy()
@@ -93,23 +96,23 @@ def main(argv=None) -> int:
     with tempfile.TemporaryDirectory() as d:
         cylinder_triaxial(0.04, axial_strain=0.002, iso_max_steps=20, ramp_steps=10,
                           history=str(Path(d) / "warm.h5"), frames=0, progress=False)  # JIT
-        for name, cs, hot in (("plain_hot2", False, 2), ("plain_hot0", False, 0),
-                              ("chains_hot0", True, 0), ("chains_hot2", True, 2)):
-            r = runs[name] = one(name, a, d, cs, hot)
+        for name in names:
+            r = runs[name] = one(name, a, d, *RUNS[name])
             print(f"{name:12s} {r['wall_s']:6.1f} s, {r['steps']} steps, sweeps/recorded step "
                   f"mean {r['sweeps_mean']:.1f} (median {r['sweeps_median']:.0f}, max "
                   f"{r['sweeps_max']}), {r['not_converged']} at max_iter; {r['answer']}",
                   flush=True)
-    p, c = runs["plain_hot0"], runs["chains_hot0"]
-    p2, c2 = runs["plain_hot2"], runs["chains_hot2"]
+    ratios = {}
+    for hot in (0, 2):
+        p, c = runs.get(f"plain_hot{hot}"), runs.get(f"chains_hot{hot}")
+        if p and c:
+            ratios[f"sweeps_plain_hot{hot}_over_chains_hot{hot}"] = p["sweeps_mean"] / c["sweeps_mean"]
+            ratios[f"wall_plain_hot{hot}_over_chains_hot{hot}"] = p["wall_s"] / c["wall_s"]
     out = dict(benchmark="chains", test=a.test, law=a.law, scale=a.scale,
                axial_strain=a.strain if a.test == "cylinder" else None,
                steps=a.steps if a.test == "slope" else None, seed=0,
                machine=record.machine(), git=record.git_commit(), runs=runs,
-               ratios=dict(sweeps_plain_hot0_over_chains_hot0=p["sweeps_mean"] / c["sweeps_mean"],
-                           wall_plain_hot0_over_chains_hot0=p["wall_s"] / c["wall_s"],
-                           sweeps_plain_hot2_over_chains_hot2=p2["sweeps_mean"] / c2["sweeps_mean"],
-                           wall_plain_hot2_over_chains_hot2=p2["wall_s"] / c2["wall_s"]),
+               ratios=ratios,
                busy=busy.finish())
     print("ratios (plain / chains): " + ", ".join(f"{k} {v:.2f}" for k, v in out["ratios"].items()))
     print(f"busy: {out['busy'].get('note', out['busy'])}")

@@ -21,6 +21,8 @@ Cases (each one knob varied at a time around a default point; the default is mar
                 y = a cosh((x−x₀)/a) + c against a = H/(μ g), H the horizontal tension of
                 the end link, μ the mass per length.  The bead-size sweep keeps the chain
                 length and changes the number of links.
+``catenary, chains``  the same, with ``chain_solve=True`` (each wire solved as one chain,
+                issue 31 §1), h and tol varied.
 ``sliding``     a solid sphere launched sliding without spin on a plane (Coulomb μ = 0.3):
                 error of the final velocity against 5/7 v₀, and of the time at which it
                 starts rolling against 2 v₀/(7 μ g) (the larger of the two is plotted).
@@ -183,7 +185,8 @@ def case_catenary(p, dt, theta, tol, n_links):
     b = s.add_wire(pts, radius=r, density=rho, group="wire", law=laws.RigidWire())
     s.interact("wire", "wire", None)
     s.fix(b[[0, -1]])
-    model, state = s.compile(dt=dt, theta=theta, tol=tol, max_iter=p["max_iter"])
+    model, state = s.compile(dt=dt, theta=theta, tol=tol, max_iter=p["max_iter"],
+                             chain_solve=p.get("chain_solve", False))
     ids = b[1:-1]
     m = model.body_mass[ids]
     steps = int(round(p["settle_time"] / dt))
@@ -449,6 +452,7 @@ def main(argv=None) -> int:
         case_sliding(SLIDING, 1e-3, 0.5, 1e-4)
         case_pile(dict(PILE, n_at_1mm=20, settle_time=0.004), 2e-4, 0.5, 1e-4, 1e-3)
         case_catenary(dict(CATENARY, settle_time=0.004), 2e-4, 0.5, 1e-4, 6)
+        case_catenary(dict(CATENARY, settle_time=0.004, chain_solve=True), 2e-4, 0.5, 1e-4, 6)
     out["warm_up_s"] = time.perf_counter() - t
     print(f"warm-up {out['warm_up_s']:.1f} s; single numba thread; " + NOTE, flush=True)
 
@@ -459,6 +463,9 @@ def main(argv=None) -> int:
     if "catenary" in only:
         print("hanging chain vs catenary: |a_fit / (H/(mu g)) - 1|")
         rows += sweep("catenary", case_catenary, ps["catenary"], ["dt", "theta", "tol", "n_links"])
+        print("the same with each wire solved as one chain (chain_solve=True)")
+        rows += sweep("catenary, chains", case_catenary, dict(ps["catenary"], chain_solve=True),
+                      ["dt", "tol"])
     if "sliding" in only:
         print("sliding sphere: max(|v/(5/7 v0) - 1|, |t_roll/t_exact - 1|)")
         rows += sweep("sliding", case_sliding, ps["sliding"], ["dt", "theta", "tol"])

@@ -106,7 +106,9 @@ def main():
             print(e)
             curves = {}
     conv = res.convergence
-    full = params["steps"] >= full_steps or bool(getattr(res, "at_rest", False))
+    # a run stopped early (--steps, Ctrl-C) decides only what it already makes certain
+    full = (not conv.get("interrupted") and (params["steps"] >= full_steps
+                                             or bool(getattr(res, "at_rest", False))))
     out = dict(machine=record.machine(), git=record.git_commit(), test=a.test,
                case=dict(test=test, wire="elastic", k=1.0, seed=a.seed, **params),
                bodies=int(res.params["n_sand"] + res.params["n_beads"]),
@@ -127,10 +129,14 @@ def main():
                    reference_mean_deg=mean, reference_sd_deg=sd,
                    within_seed_range=(bool(slopes.min() - sd <= ours <= slopes.max() + sd)
                                       if np.isfinite(ours) else None),
-                   target_met=bool(wall <= TARGET_SECONDS) if full else None)
+                   target_met=(False if wall > TARGET_SECONDS
+                               else bool(wall <= TARGET_SECONDS) if full else None))
     else:
         out.update(settlement=getattr(res, "settlement", None),
-                   target_met=bool(out["share_at_max_iter"] <= TARGET_SHARE) if full else None)
+                   # more steps at max_iter than 2 % of the most the run may take: certain
+                   target_met=(False if out["steps_at_max_iter"] > TARGET_SHARE * params["steps"]
+                               else bool(out["share_at_max_iter"] <= TARGET_SHARE) if full
+                               else None))
     out["busy"] = busy.finish()
     verdict = {True: "met", False: "NOT met", None: "not decided (a shorter run)"}
     print(f"paper-scale {a.test} (seed {a.seed}, {out['bodies']} bodies, threads={a.threads}, "

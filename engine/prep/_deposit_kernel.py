@@ -549,9 +549,10 @@ def _best_pocket(r, r_lo, r_hi, ub, hk, hv, off, nh, tk, tv, pa, pb, pc, ps, pma
                     kz = pos[2] - ub[new - 1]
                     if kz > key:
                         key = kz
-        if blocked and keep and r < pmax[v]:
+        if blocked and keep and not fit and r < pmax[v]:
             # do larger grains still fit?  If not, the largest sample below r that fits
-            # bounds the pocket from above
+            # bounds the pocket from above (after _fit_above, which has just found the
+            # largest that fits, this would only test that sample again)
             pmax[v], pmask[v] = _fit_below(a, b, c, sg, r, pmax[v], pmask[v], ub, X, Y, Z, R,
                                            head, nxt, glo, inv_h, gn, wall_n, wall_d, cyl, box,
                                            top, work, pos)

@@ -1,0 +1,355 @@
+"""Probes of the mould deposit's stagnating step (issue 31 §2), re-runnable from a clone.
+
+    .venv/bin/python bench/probe_stagnation.py [--scale 0.1] [--seed 0] [--step 1]
+                                               [--sweeps 10000] [--admm-iters 60]
+                                               [--export step.npz]
+    /usr/bin/python3 bench/probe_stagnation.py --siconos step.npz     # Debian's, with Siconos
+
+The scene is ``bench_residual.mould_model`` (the slope sample with its wire in its mould,
+h = 1e-4 s, tol 1e-4), stepped ``--step`` times with the engine; then the next step's
+problem is set up (free velocities, contacts, Delassus diagonals, warm start) and taken
+apart without stepping on:
+
+1. **Sweeps** (plain Gauss–Seidel, ``--sweeps`` of them, from the warm start).  At a few
+   sweeps: the Quad residual (our stopping test: each contact's change weighted by its
+   Delassus *diagonal*), the change of the local velocities the same sweep made,
+   ‖H Δv‖ = ‖W Δp‖ with the *full* W (the part of the impulse change that moves
+   something; the rest is a self-equilibrated redistribution), and how far the body
+   velocities still are from those of the last sweep.  The velocity error at sweep 1 000
+   (against the last) is then described: how alike two touching grains' errors are (the
+   correlation over the contacts), the share that one translation per cell of 4, 8 or 16
+   mean radii captures (what a coarse rigid-cluster correction could remove), the share
+   carried by spins (r ω), and on how many grains it sits.
+2. **ADMM** (contact space: W = H M⁻¹ Hᵀ assembled with scipy, W + ρ I factorised by
+   SuperLU) with Siconos 4.4's defaults for ``SICONOS_FRICTION_3D_ADMM`` (ρ = 1 in SI
+   units, acceleration with restart, η = 0.999, the De Saxcé shift from the unprojected
+   impulses), from zero, ``--admm-iters`` iterations.  Its answer r is measured in
+   Siconos's natural-map residual (as ``fc3d_compute_error``: velocities in m/s and
+   impulses in N s side by side, normalised by ‖q‖), by how far r lies outside the
+   Coulomb cones, and in the natural map with each contact's impulse in velocity units
+   (W_nn p), beside our sweeps' answer in the same measures.
+3. ``--export``: the step as an npz (W, q, μ and our impulses after 1 000 sweeps), which
+   ``--siconos`` solves with Siconos's NSGS and ADMM at tol 1e-6 (run it with Debian's
+   ``/usr/bin/python3``, which has ``python3-siconos``).
+
+No timing is used for a conclusion (the wall times printed are indicative).
+JSON: bench/results/stagnation-*.json.
+"""
+from __future__ import annotations
+
+import argparse
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+
+HERE = Path(__file__).resolve().parent
+
+
+# ---------------------------------------------------------------- the cone, in numpy
+def project_cones(x, mu):
+    """Projection of the (n, 3) local impulses (p_n, p_t, p_s) on the Coulomb cones."""
+    x = np.asarray(x, float).reshape(-1, 3)
+    pn, pt, ps = x[:, 0], x[:, 1], x[:, 2]
+    nt = np.hypot(pt, ps)
+    inside = nt <= mu * pn
+    polar = mu * nt <= -pn
+    y0 = (pn + mu * nt) / (1.0 + mu * mu)
+    f = np.where(nt > 0.0, mu * y0 / np.maximum(nt, 1e-300), 0.0)
+    out = np.zeros_like(x)
+    out[inside] = x[inside]
+    surf = ~inside & ~polar
+    out[surf, 0] = y0[surf]
+    out[surf, 1] = f[surf] * pt[surf]
+    out[surf, 2] = f[surf] * ps[surf]
+    return out.ravel()
+
+
+class Problem:
+    """One step's frictional contact problem u = W p + q in contact space (flat 3n)."""
+
+    def __init__(self, W, q, mu):
+        self.W, self.q, self.mu = W, np.asarray(q, float), np.asarray(mu, float)
+        self.wn = np.repeat(W.diagonal()[0::3], 3)
+
+    def shift(self, p):
+        """The De Saxcé term (μ ‖u_T‖, 0, 0) at the velocities p gives."""
+        u = (self.W @ p + self.q).reshape(-1, 3)
+        s = np.zeros_like(u)
+        s[:, 0] = self.mu * np.hypot(u[:, 1], u[:, 2])
+        return s.ravel()
+
+    def natural(self, p, scaled=False):
+        """Natural-map residual ‖p − P_K(p − û)‖ / ‖q‖ (``fc3d_compute_error``'s), or with
+        the impulses in velocity units (W_nn p) when ``scaled``."""
+        uh = self.W @ p + self.q + self.shift(p)
+        s = self.wn if scaled else 1.0
+        e = s * p - s * project_cones((s * p - uh) / s, self.mu)
+        return float(np.linalg.norm(e) / np.linalg.norm(self.q))
+
+    def cone_violation(self, p):
+        """‖p − P_K(p)‖ / ‖p‖."""
+        return float(np.linalg.norm(p - project_cones(p, self.mu)) / np.linalg.norm(p))
+
+
+def admm(pb: Problem, rho: float, iters: int, log_at=(1, 3, 10, 30, 50, 60, 100, 200)):
+    """Siconos 4.4's fc3d ADMM (symmetric, accelerated with restart), from zero; returns
+    (r, z, log): r the last linear solve's impulses, z their projection on the cones."""
+    import scipy.sparse as sp
+    import scipy.sparse.linalg as spl
+
+    m = pb.q.size
+    lu = spl.splu((pb.W + rho * sp.identity(m)).tocsc())
+    z = np.zeros(m)
+    r = np.zeros(m)
+    xi = np.zeros(m)
+    zk, xik, zh, xih = z.copy(), xi.copy(), z.copy(), xi.copy()
+    ek, tauk, eta = np.inf, 1.0, 0.999
+    log = []
+    for k in range(1, iters + 1):
+        s = pb.shift(r)
+        r = lu.solve(rho * (zh - xih) - pb.q - s)
+        z = project_cones(r + xih, pb.mu)
+        xi = xih + r - z
+        e = np.linalg.norm(r - z) ** 2 + (rho * np.linalg.norm(zh - z)) ** 2
+        if e < eta * ek:
+            tau = 0.5 * (1.0 + np.sqrt(1.0 + 4.0 * tauk * tauk))
+            a = (tauk - 1.0) / tau
+            zh, xih = (1 + a) * z - a * zk, (1 + a) * xi - a * xik
+            tauk, ek = tau, e
+        else:
+            tauk, ek = 1.0, ek / eta
+            zh, xih = z.copy(), xi.copy()
+        zk, xik = z.copy(), xi.copy()
+        if k in log_at or k == iters:
+            log.append(dict(iteration=k, natural_r=pb.natural(r), natural_z=pb.natural(z)))
+    return r, z, log
+
+
+# ---------------------------------------------------------------- the engine's step
+def setup(scale, seed, steps):
+    """The mould deposit stepped ``steps`` times, and the next step's problem prepared."""
+    sys.path.insert(0, str(HERE.parent))
+    sys.path.insert(0, str(HERE))
+    from bench_residual import mould_model
+    from engine import step
+    from engine.contact import detect
+    from engine.integrator import free_velocity
+    from engine.solver import kernels as K
+    from engine.solver.nlgs import LINK_COLUMNS
+
+    model, state = mould_model(scale, True, hot_sweeps=2)
+    for _ in range(steps):
+        step(model, state)
+    s = state.copy()
+    free_velocity(model, s)
+    detect(model, s)
+    c = s.contacts_buf
+    n, nl, o = c.count, model.n_links, model.options
+    K.prepare(n, c.i, c.j, c.key, c.frame, c.gap, c.ri, c.rj, c.w, c.gterm, c.impulse,
+              model.body_dyn, s.vel6, s.warm_key, s.warm_impulse, o.dt, model.n_bodies)
+    wl = np.empty((nl, LINK_COLUMNS))
+    K.link_prepare(nl, model.link_i, model.link_j, model.link_ref_length,
+                   model.link_stiffness, s.link_broken, s.position, model.body_dyn, s.vel6,
+                   s.link_impulse, s.link_normal, s.link_gap, wl, o.dt)
+    C = K.Contacts(c.i, c.j, c.frame, c.w, c.gterm, c.mu, c.ri, c.rj, c.impulse)
+    B = K.Bodies(model.body_dyn, s.vel6)
+    L = K.Links(model.link_i, model.link_j, s.link_normal, wl, model.link_unilateral,
+                s.link_impulse, model.link_order)
+    sweep = lambda: K.sweep_all(n, c.n_pair, nl, C, B, L, 1.0)  # noqa: E731
+    return model, s, c, n, sweep
+
+
+def local_operator(model, c, n):
+    """H (3n × 6 nb, u = H v, :func:`engine.solver.kernels.local_velocity`) and M⁻¹ (6 nb)
+    as scipy sparse / numpy."""
+    import scipy.sparse as sp
+
+    from engine.model import DYN_INV_INERTIA, DYN_INV_MASS, DYN_LINE
+
+    dyn = model.body_dyn
+    if dyn[:, DYN_LINE].any():
+        raise ValueError("probe_stagnation: scenes with LINE walls are not handled")
+    F = c.frame[:n]
+    ci, cj = c.i[:n].astype(np.int64), c.j[:n].astype(np.int64)
+    ri, rj = c.ri[:n, None], c.rj[:n, None]
+    N, T, S = F[:, 0:3], F[:, 3:6], F[:, 6:9]
+    rows, cols, vals = [], [], []
+
+    def add(row, body, off, vec):
+        for d in range(3):
+            rows.append(row)
+            cols.append(6 * body + off + d)
+            vals.append(np.ascontiguousarray(vec[:, d]))
+
+    a = 3 * np.arange(n)
+    add(a, ci, 0, N), add(a, cj, 0, -N)
+    add(a + 1, ci, 0, T), add(a + 1, cj, 0, -T), add(a + 1, ci, 3, -ri * S), add(a + 1, cj, 3, -rj * S)
+    add(a + 2, ci, 0, S), add(a + 2, cj, 0, -S), add(a + 2, ci, 3, ri * T), add(a + 2, cj, 3, rj * T)
+    nb = model.n_bodies
+    H = sp.csr_matrix((np.concatenate(vals), (np.concatenate(rows), np.concatenate(cols))),
+                      shape=(3 * n, 6 * nb))
+    minv = np.hstack([np.repeat(dyn[:, DYN_INV_MASS], 3).reshape(nb, 3),
+                      np.repeat(dyn[:, DYN_INV_INERTIA], 3).reshape(nb, 3)]).ravel()
+    return H, minv
+
+
+def probe_sweeps(model, s, c, n, sweep, nsweeps, H):
+    """Part 1 (module doc)."""
+    mob = model.body_dyn[:, 0] > 0
+    wd = c.w[:n][:, [0, 1, 1]]
+    marks = sorted({k for k in (1, 10, 100, 300, 1000, 3000, 10000, 30000) if k < nsweeps}
+                   | {nsweeps})
+    rows, snap = [], {}
+    pv, pp = s.vel6.copy(), c.impulse[:n].copy()
+    for k in range(1, nsweeps + 1):
+        quad = sweep()
+        if k in marks:
+            v, p = s.vel6, c.impulse[:n]
+            den = np.sqrt(((wd * p) ** 2).sum())
+            dv = H @ (v - pv).ravel()
+            rows.append(dict(sweep=k, quad=float(quad),
+                             diagonal_change=float(np.sqrt(((wd * (p - pp)) ** 2).sum()) / den),
+                             full_change=float(np.linalg.norm(dv) / den)))
+            snap[k] = v.copy()
+        pv, pp = s.vel6.copy(), c.impulse[:n].copy()
+    vref = snap[nsweeps]
+    uref = np.linalg.norm(H @ vref.ravel())
+    for row in rows:
+        v = snap[row["sweep"]]
+        row["velocity_error"] = float(np.linalg.norm(H @ (v - vref).ravel()) / uref)
+        row["max_speed_error"] = float(np.abs(v[mob, :3] - vref[mob, :3]).max())
+    k = 1000 if 1000 in snap and nsweeps > 1000 else marks[0]
+    e = snap[k] - vref
+    e[~mob] = 0.0
+    ci, cj = c.i[:n], c.j[:n]
+    pair = mob[ci] & mob[cj]
+    t = e[:, :3]
+    corr = float((t[ci[pair]] * t[cj[pair]]).sum()
+                 / (0.5 * ((t[ci[pair]] ** 2).sum() + (t[cj[pair]] ** 2).sum())))
+    radius = model.body_dyn[:, 2]
+    spin = ((e[:, 3:] ** 2).sum(1) * radius ** 2).sum()
+    trans = (t ** 2).sum(1)
+    field = dict(at_sweep=k, reference_sweep=nsweeps, neighbour_correlation=corr,
+                 spin_share=float(spin / (spin + trans.sum())), cells=[])
+    rmean = radius[mob].mean()
+    x = s.position
+    tm = t[mob]
+    for cells in (4, 8, 16):
+        key = np.floor(x[mob, :3] / (cells * rmean)).astype(np.int64)
+        _, lab = np.unique(key, axis=0, return_inverse=True)
+        lab = lab.ravel()
+        cnt = np.bincount(lab)
+        means = np.stack([np.bincount(lab, tm[:, d]) / cnt for d in range(3)], 1)
+        field["cells"].append(dict(cell_radii=cells, clusters=int(cnt.size),
+                                   bodies_per_cluster=float(cnt.mean()),
+                                   translation_captured=float(
+                                       1 - ((tm - means[lab]) ** 2).sum() / (tm ** 2).sum())))
+    act = c.impulse[:n, 0] > 0
+    z = np.bincount(ci[act], minlength=model.n_bodies) + np.bincount(cj[act], minlength=model.n_bodies)
+    order = np.argsort(-trans)
+    cum = np.cumsum(trans[order]) / trans.sum()
+    half = int(np.searchsorted(cum, 0.5)) + 1
+    field.update(half_on_bodies=half, half_on_share=float(half / mob.sum()),
+                 their_coordination_median=float(np.median(z[order[:half]])),
+                 coordination_median=float(np.median(z[mob])))
+    return rows, field
+
+
+def siconos(npz):
+    """Part 3: Siconos's NSGS and ADMM on an exported step (run with Debian's python3)."""
+    import scipy.sparse as sp
+    import siconos.numerics as sn
+
+    d = np.load(npz)
+    W = sp.csc_matrix((d["Wdata"], d["Windices"].astype(np.int64),
+                       d["Windptr"].astype(np.int64)), shape=tuple(d["shape"]))
+    q, mu = d["q"], d["mu"]
+    pb = Problem(W, q, mu)
+    fc = sn.FrictionContactProblem(3, mu.size, sn.NumericsMatrix(W), q, mu)
+    out = dict(case=str(npz), contacts=int(mu.size), tol=1e-6, solvers={})
+    for name, maxit in (("NSGS", 3000), ("ADMM", 1000)):
+        o = sn.SolverOptions(getattr(sn, "SICONOS_FRICTION_3D_" + name))
+        o.iparam[sn.SICONOS_IPARAM_MAX_ITER] = maxit
+        o.dparam[sn.SICONOS_DPARAM_TOL] = 1e-6
+        r, u = np.zeros(q.size), np.zeros(q.size)
+        t = time.perf_counter()
+        sn.fc3d_driver(fc, r, u, o)
+        print(f"Siconos {name}: {o.iparam[sn.SICONOS_IPARAM_ITER_DONE]} iterations, "
+              f"{time.perf_counter() - t:.1f} s; natural {pb.natural(r):.2e}, outside the cones "
+              f"{pb.cone_violation(r):.2e}, natural with W_nn p {pb.natural(r, True):.2e}",
+              flush=True)
+        out["solvers"][name] = dict(iterations=int(o.iparam[sn.SICONOS_IPARAM_ITER_DONE]),
+                                    natural=pb.natural(r), cone_violation=pb.cone_violation(r),
+                                    natural_scaled=pb.natural(r, True))
+    sys.path.insert(0, str(HERE))
+    from record import machine, write
+
+    out["machine"] = machine()
+    print("wrote", write("stagnation-siconos", out))
+
+
+def main(argv=None):
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--scale", type=float, default=0.1)
+    ap.add_argument("--seed", type=int, default=0)
+    ap.add_argument("--step", type=int, default=1, help="engine steps before the probed one")
+    ap.add_argument("--sweeps", type=int, default=10000)
+    ap.add_argument("--admm-iters", type=int, default=60)
+    ap.add_argument("--export", default=None, help="write the step's problem to this npz")
+    ap.add_argument("--siconos", default=None, help="solve an exported npz with Siconos")
+    a = ap.parse_args(argv)
+    if a.siconos:
+        return siconos(a.siconos)
+    if a.sweeps < 1000 or a.admm_iters < 1 or a.step < 0:
+        ap.error("--sweeps must be >= 1000, --admm-iters >= 1, --step >= 0")
+    sys.path.insert(0, str(HERE))
+    from record import Busy, machine, write
+
+    busy = Busy()
+    model, s, c, n, sweep = setup(a.scale, a.seed, a.step)
+    H, minv = local_operator(model, c, n)
+    vel0, imp0, links0 = s.vel6.copy(), c.impulse.copy(), s.link_impulse.copy()
+    print(f"scale {a.scale}, seed {a.seed}, step index {a.step} (after {a.step} engine steps):"
+          f" {model.n_bodies} bodies, {n} contacts, {model.n_links} links", flush=True)
+    # our answer after 1 000 sweeps, and the problem in contact space with the wire's link
+    # impulses held at their values then (in q), as the exported one
+    for _ in range(1000):
+        sweep()
+    ours = c.impulse[:n].ravel().copy()
+    q = H @ (s.vel6.ravel() - minv * (H.T @ ours))
+    q[0::3] += c.gterm[:n]
+    import scipy.sparse as sp
+    W = (H @ sp.diags(minv) @ H.T).tocsc()
+    pb = Problem(W, q, c.mu[:n].copy())
+    ours_m = dict(natural=pb.natural(ours), natural_scaled=pb.natural(ours, True))
+    s.vel6[:], c.impulse[:], s.link_impulse[:] = vel0, imp0, links0
+    t = time.perf_counter()
+    rows, field = probe_sweeps(model, s, c, n, sweep, a.sweeps, H)
+    print(f"{a.sweeps} sweeps in {time.perf_counter() - t:.0f} s", flush=True)
+    for r in rows:
+        print(f"sweep {r['sweep']:6d}: Quad {r['quad']:.2e}, full ||W dp|| {r['full_change']:.2e}"
+              f", velocities {r['velocity_error']:.2f} from the last sweep's (max "
+              f"{1e3 * r['max_speed_error']:.2f} mm/s)")
+    print("error field:", field)
+    t = time.perf_counter()
+    r, z, log = admm(pb, 1.0, a.admm_iters)
+    admm_m = dict(rho=1.0, iterations=a.admm_iters, seconds=time.perf_counter() - t,
+                  log=log, natural_r=pb.natural(r), natural_z=pb.natural(z),
+                  cone_violation_r=pb.cone_violation(r), natural_scaled_r=pb.natural(r, True),
+                  natural_scaled_z=pb.natural(z, True))
+    print("ours after 1 000 sweeps:", ours_m)
+    print("ADMM:", {k: v for k, v in admm_m.items() if k != "log"})
+    if a.export:
+        np.savez(a.export, Wdata=W.data, Windices=W.indices, Windptr=W.indptr,
+                 shape=W.shape, q=q, mu=pb.mu, r=ours)
+        print("wrote", a.export)
+    out = dict(machine=machine(), scale=a.scale, seed=a.seed, step_index=a.step,
+               bodies=model.n_bodies, contacts=n, sweeps=rows, error_field=field,
+               ours_after_1000=ours_m, admm=admm_m, busy=busy.finish())
+    print("wrote", write("stagnation", out))
+
+
+if __name__ == "__main__":
+    main()

@@ -13,10 +13,12 @@ For each: wall time, recorded steps, mean NLGS sweeps per recorded step, steps a
 max_iter, and the answer (cylinder: the final deviator q and wire equivalent stress; slope:
 the maximum slope); the same seed, so the answers differ by the solver's path within its
 tolerance, not by the seed spread.  ``--runs`` picks some of the four (for example
-``plain_hot2,chains_hot2`` for a long run).
+``plain_hot2,chains_hot2`` for a long run), and ``chains_anderson`` adds the chain solve
+inside Anderson mixing (depth 4, ``hot_sweeps=0``).  ``--threads T`` runs them all on T NLGS
+threads (the chains then in the parallel sweep's link phase).
 
 Run:  .venv/bin/python bench/bench_chains.py [--test cylinder|slope] [--law elastic|rigid]
-      [--scale S] [--strain E] [--steps N] [--runs plain_hot2,chains_hot2]
+      [--scale S] [--strain E] [--steps N] [--runs plain_hot2,chains_hot2] [--threads T]
 Writes bench/results/chains-<YYYYmmdd-HHMM>.json.
 """
 from __future__ import annotations
@@ -38,28 +40,31 @@ from engine import laws  # noqa: E402
 from engine.experiments import cylinder_triaxial, slope_deposit  # noqa: E402
 
 
-#: The four ways: name -> (chain_solve, hot_sweeps).
-RUNS = {"plain_hot2": (False, 2), "plain_hot0": (False, 0), "chains_hot0": (True, 0),
-        "chains_hot2": (True, 2)}
+#: The ways: name -> (chain_solve, hot_sweeps, anderson).
+RUNS = {"plain_hot2": (False, 2, 0), "plain_hot0": (False, 0, 0), "chains_hot0": (True, 0, 0),
+        "chains_hot2": (True, 2, 0), "chains_anderson": (True, 0, 4)}
+#: The runs made when --runs is not given.
+DEFAULT_RUNS = ("plain_hot2", "plain_hot0", "chains_hot0", "chains_hot2")
 
 
-def one(name, a, out_dir, chain_solve, hot_sweeps):
+def one(name, a, out_dir, chain_solve, hot_sweeps, anderson):
     h = str(Path(out_dir) / f"{name}.h5")
     t0 = time.perf_counter()
     law = laws.RigidWire() if a.law == "rigid" else laws.ElasticWire(stiffness=1.0)
     if a.test == "cylinder":
         res = cylinder_triaxial(a.scale, axial_strain=a.strain, history=h, frames=0,
                                 hot_sweeps=hot_sweeps, chain_solve=chain_solve, wire_law=law,
-                                progress=False)
+                                anderson=anderson, threads=a.threads, progress=False)
     else:
         res = slope_deposit(a.scale, steps=a.steps, history=h, frames=0, wire_law=law,
-                            hot_sweeps=hot_sweeps, chain_solve=chain_solve, progress=False,
-                            max_nonconverged=1.0)
+                            hot_sweeps=hot_sweeps, chain_solve=chain_solve, anderson=anderson,
+                            threads=a.threads, progress=False, max_nonconverged=1.0)
     wall = time.perf_counter() - t0
     rec = io.read_history(h, frames=False)
     its = np.asarray(rec.iterations)
     conv = res.convergence
-    out = dict(name=name, chain_solve=chain_solve, hot_sweeps=hot_sweeps, wall_s=wall,
+    out = dict(name=name, chain_solve=chain_solve, hot_sweeps=hot_sweeps, anderson=anderson,
+               threads=a.threads, wall_s=wall,
                recorded_steps=int(its.size), sweeps_mean=float(its.mean()),
                sweeps_median=float(np.median(its)), sweeps_max=int(its.max()),
                steps=int(conv["steps"]), not_converged=int(conv["non_converged"]))
@@ -82,9 +87,12 @@ def main(argv=None) -> int:
                     help="sample scale (default 0.1 cylinder, 0.05 slope)")
     ap.add_argument("--strain", type=float, default=0.05, help="cylinder: axial strain")
     ap.add_argument("--steps", type=int, default=2000, help="slope: steps")
-    ap.add_argument("--runs", default=",".join(RUNS),
+    ap.add_argument("--runs", default=",".join(DEFAULT_RUNS),
                     help=f"comma-separated, among {', '.join(RUNS)}")
+    ap.add_argument("--threads", type=int, default=1, help="NLGS threads of every run")
     a = ap.parse_args(argv)
+    if a.threads < 1:
+        ap.error(f"--threads must be >= 1, got {a.threads}")
     names = [x.strip() for x in a.runs.split(",") if x.strip()]
     bad = [x for x in names if x not in RUNS]
     if bad or not names:
@@ -110,7 +118,7 @@ def main(argv=None) -> int:
             ratios[f"wall_plain_hot{hot}_over_chains_hot{hot}"] = p["wall_s"] / c["wall_s"]
     out = dict(benchmark="chains", test=a.test, law=a.law, scale=a.scale,
                axial_strain=a.strain if a.test == "cylinder" else None,
-               steps=a.steps if a.test == "slope" else None, seed=0,
+               steps=a.steps if a.test == "slope" else None, seed=0, threads=a.threads,
                machine=record.machine(), git=record.git_commit(), runs=runs,
                ratios=ratios,
                busy=busy.finish())

@@ -107,9 +107,9 @@ class Options(Checked):
         the links' impulses exactly, given the contacts', a tridiagonal system per wire
         with the wires' λ >= 0 as a complementarity) instead of one Gauss–Seidel pass over
         its links: tension crosses the whole chain in one sweep.  The same converged
-        answer and residual.  For now on the unmixed serial sweep only (with or without
-        the hot re-sweeps): refused with ``anderson > 0`` or ``threads > 1``.  Default
-        False.
+        answer and residual.  Goes with every variant of the sweep: serial or on
+        ``threads`` (the chains then solved on one thread after the contacts' phases),
+        plain, with the hot re-sweeps, or mixed (``anderson``).  Default False.
     max_overlap : float
         Largest overlap of a contact at the end of a step's detection, as a fraction of the
         smaller radius of its two bodies, past which :func:`engine.run` stops with a
@@ -157,13 +157,9 @@ def no_solver_conflict(m):
 
 def solver_conflict(hot_sweeps, anderson, relax, threads, chain_solve=False) -> str | None:
     """Why these NLGS options do not go together (None: they do): the hot re-sweeps and
-    over-relaxation work on the unmixed sweep, over-relaxation on one thread only, the
-    chain solve on the unmixed serial sweep (hot re-sweeps allowed).  Shared by :class:`Options` and the ``nscd
-    run`` files, which check before anything runs."""
-    if chain_solve and (anderson > 0 or threads > 1):
-        return (f"chain_solve = True works with the unmixed serial sweep only (for now; the hot "
-                f"re-sweeps too): set anderson=0 (got {anderson}) and threads=1 (got "
-                f"{threads}), or chain_solve=False")
+    over-relaxation work on the unmixed sweep, over-relaxation on one thread only; the
+    chain solve goes with all of them (``chain_solve`` is kept for the callers).  Shared by
+    :class:`Options` and the ``nscd run`` files, which check before anything runs."""
     if hot_sweeps and anderson > 0:
         return (f"hot_sweeps = {hot_sweeps} works with the unmixed sweep only: set anderson=0 "
                 f"(got {anderson}), or hot_sweeps=0")

@@ -217,7 +217,7 @@ class Solver(Strict):
                          description="NLGS threads (2 pays on tens of thousands of contacts)")
     acceleration: Acceleration = HotSweeps()
     chain_solve: bool = Field(False, description="each wire solved as one chain in every NLGS "
-                                                 "sweep (needs anderson = 0 and threads = 1)")
+                                                 "sweep (any threads, hot_sweeps or anderson)")
     max_nonconverged: float = Field(0.25, ge=0, le=1)
 
     @property

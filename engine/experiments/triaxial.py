@@ -22,8 +22,8 @@ changed most after each sweep (:attr:`engine.model.Options.hot_sweeps`, docs/spe
 (:mod:`engine.solver.anderson`), the default before 2026-11-25.  ``threads`` (default 1) is
 the NLGS thread count (:attr:`engine.model.Options.threads`); 2 pays only on samples of tens
 of thousands of contacts (docs/speed.md).  ``chain_solve`` (default False) solves each wire
-as one chain in every sweep (:attr:`engine.model.Options.chain_solve`; with ``anderson`` = 0
-and one thread): on the rigid-wire cylinder at scale 0.3 it did not pay (docs/speed.md).
+as one chain in every sweep (:attr:`engine.model.Options.chain_solve`, with every variant
+of the sweep): on the rigid-wire cylinder at scale 0.3 it did not pay (docs/speed.md).
 
 The walls' pressure is data: one :class:`~engine.schedules.Ramp` in the drives of the top
 plate (and of the box's side walls), raised by :class:`~engine.schedules.FollowSchedules`;

@@ -49,7 +49,8 @@ from numba import njit, prange
 
 from ..stop import in_chunks
 from .local import project_disk, tension
-from .kernels import _apply, _apply_link, sweep_all
+from .chains import chains_for, link_phase
+from .kernels import _apply, _apply_link, sweep
 from .parallel import Groups, phases, sweep_groups
 
 #: The mixing's work arrays (:class:`Workspace`) as :func:`iterate_anderson` takes them:
@@ -323,7 +324,7 @@ def _mix_groups(par, T, start, k, gamma, dg, C, B, x):
 
 @njit(cache=True)
 def iterate_anderson(n, n_pair, nl, C, B, L, relax, tol, max_iter, m, period, H, T, G, min_par,
-                     it0, it1):
+                     it0, it1, nc, K):
     """:func:`engine.solver.kernels.iterate` (its first nine arguments) with Anderson mixing
     of depth ``m`` every ``period`` sweeps (module docstring), on the work arrays ``H``
     (:class:`History`).  ``T`` = 1: serial sweeps (:func:`engine.solver.kernels.sweep_all`);
@@ -334,7 +335,9 @@ def iterate_anderson(n, n_pair, nl, C, B, L, relax, tol, max_iter, m, period, H,
     Sweeps ``it0`` to ``it1`` - 1 of the ``max_iter`` of the step: a call with ``it0`` > 0
     goes on from the counters the previous one left in ``H.loop`` (8,) (the history columns
     are in the work arrays), so chunks of sweeps give the result of one call, bit for bit
-    (:func:`engine.stop.in_chunks`).
+    (:func:`engine.stop.in_chunks`).  ``nc``, ``K``: the links' phase of each sweep
+    (:func:`engine.solver.chains.link_phase`: the chain solve with ``nc`` >= 0, else the
+    plain link sweep); the mixing then mixes the chains' answers as it mixes the links'.
     Returns ``(iterations of this call, residual)``."""
     if n == 0 and nl == 0:
         return 0, 0.0
@@ -372,9 +375,10 @@ def iterate_anderson(n, n_pair, nl, C, B, L, relax, tol, max_iter, m, period, H,
     res = 0.0
     for it in range(it0, min(it1, max_iter)):
         if T > 1:
-            res = sweep_groups(T, G, nl, C, B, L, relax, rhs[:0], min_par)
+            res = sweep_groups(T, G, nl, C, B, L, relax, rhs[:0], min_par, it, nc, K)
         else:
-            res = sweep_all(n, n_pair, nl, C, B, L, relax)
+            num, den = sweep(n, n_pair, C, B, relax)
+            res = link_phase(num, den, it, nc, K, nl, L, B, relax)
         if res < tol or it == max_iter - 1:
             return it + 1 - it0, res
         if res > RESTART_GROWTH * prev_res:
@@ -472,17 +476,19 @@ _NO_GROUPS = np.zeros(1, np.int64)
 
 
 def run_anderson(ws: Workspace, m, n, n_pair, nl, C, B, L, relax, tol, max_iter, T=1, G=None,
-                 min_par=0, it0=0, it1=None):
+                 min_par=0, it0=0, it1=None, chains=None):
     """Call :func:`iterate_anderson` with the buffers of ``ws`` (grown as needed); ``T``,
     ``G`` (:class:`~engine.solver.parallel.Groups`), ``min_par``: the grouped parallel sweep
     (:func:`engine.solver.parallel.iterate_parallel`); ``it0``, ``it1``: the sweeps of this
-    call (default all ``max_iter``)."""
+    call (default all ``max_iter``); ``chains``: (nc, ChainWork) of
+    :func:`engine.solver.chains.chains_for` (default: the plain link sweep)."""
     ws.ensure(m, n, nl)
+    nc, K = chains_for(False, 0, L.i, L.j) if chains is None else chains
     if T == 1:
         G = Groups(_NO_GROUPS, _NO_GROUPS, ws.acc)
     return iterate_anderson(n, n_pair, nl, C, B, L, relax, tol, max_iter, m, PERIOD,
                             ws.history(), T, G, min_par, int(it0),
-                            int(max_iter if it1 is None else it1))
+                            int(max_iter if it1 is None else it1), nc, K)
 
 
 def domain_mixer(ws: Workspace, m, max_iter, tol, nl, L):
@@ -491,10 +497,10 @@ def domain_mixer(ws: Workspace, m, max_iter, tol, nl, L):
     groups and the parallel threshold that runs :func:`run_anderson` in chunks
     (:func:`engine.stop.in_chunks`) and returns (iterations, residual).  Kept here so that
     the parallel sweep needs nothing of this module."""
-    def mix(T, n, C, B, relax, G, min_par):
+    def mix(T, n, C, B, relax, G, min_par, chains=None):
         return in_chunks(lambda done, m_: run_anderson(
             ws, m, n, n, nl, C, B, L, relax, tol, max_iter, T, G, min_par, it0=done,
-            it1=done + m_), max_iter, tol, n + nl)
+            it1=done + m_, chains=chains), max_iter, tol, n + nl)
 
     return mix
 

@@ -53,7 +53,8 @@ import numpy as np
 from numba import njit
 
 from ..model import DYN_INV_MASS
-from .kernels import _apply_link, _full, link_sweep, link_update, lstar, resweep_hot
+from .kernels import (_apply_link, _full, link_sweep, link_update, links_then_residual,
+                      lstar, resweep_hot)
 from .local import tension
 
 #: The chain solve's arrays (:func:`chain_workspace`): ``starts`` (nl + 1,) int64 and
@@ -389,6 +390,27 @@ def _links(sweeps, nc, K, L, B, relax):
     return link_sweep(L.i.shape[0], L, B, relax)
 
 
+@njit(cache=True, inline="always")
+def link_phase(num, den, sweeps, nc, K, nl, L, B, relax):
+    """The end of every sweep of the parallel and mixed paths: the links' part added to
+    the contacts' Quad sums ``num``, ``den``, and the Quad residual.  With ``nc`` >= 0
+    (``Options.chain_solve``) the links are the ``nc`` chains of ``K`` (:func:`_links`:
+    the chain solve for the step's first :data:`CHAIN_SWEEPS` sweeps, ``sweeps`` counting
+    those done before this one); with ``nc`` = :data:`NO_CHAINS` the plain link sweep, which
+    is :func:`engine.solver.kernels.links_then_residual` bit for bit."""
+    if nc < 0:
+        return links_then_residual(num, den, nl, L, B, relax)
+    if nc > 0:
+        lnum, lden = _links(sweeps, nc, K, L, B, relax)
+        num += lnum
+        den += lden
+    return np.sqrt(num / den) / relax if den > 0.0 else 0.0
+
+
+#: ``nc`` of :func:`link_phase` when the chain solve is off.
+NO_CHAINS = -1
+
+
 @njit(cache=True)
 def iterate_chains(n, n_pair, nc, C, B, L, K, relax, tol, max_iter, done, hot_sweeps, factor, q,
                    hot):
@@ -442,3 +464,17 @@ def chain_workspace(nl: int, link_i, link_j):
     act = np.zeros(max(nl, 1), np.int8)
     more = [np.zeros(max(nl, 1)) for _ in range(5)]          # z, cp, dp, uf, lp
     return nc, ChainWork(starts, closed, *work, act, *more)
+
+
+def chains_for(chain_solve: bool, nl: int, link_i, link_j):
+    """(nc, :class:`ChainWork`) as :func:`link_phase` takes them: the step's chains when
+    ``chain_solve`` and there are links, else (:data:`NO_CHAINS`, a one-row workspace)."""
+    global _OFF
+    if chain_solve and nl:
+        return chain_workspace(nl, link_i, link_j)
+    if _OFF is None:              # never written with NO_CHAINS: one for every caller
+        _OFF = NO_CHAINS, chain_workspace(0, link_i[:0], link_j[:0])[1]
+    return _OFF
+
+
+_OFF = None

@@ -100,10 +100,12 @@ def _solve_on(model, state, ci, cj, body_dyn, vel6, pos, link_i, link_j, threads
     B = Bodies(body_dyn, vel6)
     L = Links(link_i, link_j, state.link_normal, wl, model.link_unilateral, state.link_impulse,
               model.link_order)
-    if o.chain_solve and nl and threads == 1:   # (Options refuses the other variants)
-        from .chains import chain_workspace, iterate_chains
+    from .chains import chains_for, iterate_chains
 
-        nc, cw = chain_workspace(nl, link_i, link_j)
+    # the links' phase: each wire's chain solved (Options.chain_solve), or the link sweep
+    chains = chains_for(o.chain_solve, nl, link_i, link_j)
+    if o.chain_solve and nl and threads == 1 and o.anderson == 0:
+        nc, cw = chains
         q, hot = np.empty(n), np.empty(n, np.int32)
         return in_chunks(lambda done, m: iterate_chains(
             n, c.n_pair, nc, C, B, L, cw, o.relax, o.tol, m, done, o.hot_sweeps, HOT_FACTOR,
@@ -118,7 +120,7 @@ def _solve_on(model, state, ci, cj, body_dyn, vel6, pos, link_i, link_j, threads
         if threads == 1:
             return in_chunks(lambda done, m: run_anderson(
                 ws, o.anderson, n, c.n_pair, nl, C, B, L, o.relax, o.tol, o.max_iter,
-                it0=done, it1=done + m), o.max_iter, o.tol, n + nl)
+                it0=done, it1=done + m, chains=chains), o.max_iter, o.tol, n + nl)
     if o.hot_sweeps > 0 and threads == 1:  # unmixed (Options refuses anderson > 0)
         q, hot = np.empty(n), np.empty(n, np.int32)
         return in_chunks(lambda done, m: iterate_hot(
@@ -135,7 +137,7 @@ def _solve_on(model, state, ci, cj, body_dyn, vel6, pos, link_i, link_j, threads
 
         mix = domain_mixer(ws, o.anderson, o.max_iter, o.tol, nl, L)
     return iterate_parallel(threads, n, nl, C, B, L, o.relax, o.tol, o.max_iter, mix,
-                            o.hot_sweeps)
+                            o.hot_sweeps, chains)
 
 
 #: Columns of the per-link work array ``wl`` filled by :func:`link_prepare`.

@@ -38,7 +38,8 @@ from ..stop import in_chunks
 from ..threads import numba_threads
 
 from ..model import DYN_INV_INERTIA, DYN_INV_MASS, DYN_LINE
-from .kernels import HOT_FACTOR, Contacts, _contact, _span, hot_list, links_then_residual
+from .chains import chains_for, link_phase
+from .kernels import HOT_FACTOR, Contacts, _contact, _span, hot_list
 
 #: The contact groups of :func:`partition` as the grouped sweeps take them: ``start``
 #: (2T + 1,) int64 the groups' starts in the gathered contacts, ``mid`` (2T,) int64 where
@@ -272,30 +273,33 @@ def _shared_and_sum(kind, ng, start, hot, q, C, B, relax, acc):
 
 
 @njit(cache=True)
-def sweep_groups(T, G, nl, C, B, L, relax, q, min_par):
+def sweep_groups(T, G, nl, C, B, L, relax, q, min_par, sweeps, nc, K):
     """One sweep of the grouped contacts ``C`` (:class:`~engine.solver.kernels.Contacts`
     gathered by group, :class:`Groups` ``G``: interiors, even boundaries, odd boundaries,
-    shared) then the ``nl`` links of ``L``; returns the Quad residual of the sweep.  Each
+    shared) then the ``nl`` links of ``L`` on one thread (with ``nc`` >= 0, the chain
+    solve of the ``nc`` chains of ``K``, ``sweeps`` the step's sweeps before this one:
+    :func:`engine.solver.chains.link_phase`); returns the Quad residual of the sweep.  Each
     contact's ‖W Δp‖² goes to ``q`` unless ``q`` is empty."""
     num, den = _phases(0, T, G.start, G.mid, C.i[:0], q, C, B, relax, G.acc, min_par)
-    return links_then_residual(num, den, nl, L, B, relax)
+    return link_phase(num, den, sweeps, nc, K, nl, L, B, relax)
 
 
 @njit(cache=True)
 def iterate_groups(T, n, nl, G, C, B, L, relax, tol, max_iter, hot_sweeps, factor, q, hot,
-                   hstart, min_par):
+                   hstart, min_par, done, nc, K):
     """Sweeps (:func:`sweep_groups`) until the Quad residual is below ``tol``; returns
     (iterations, residual).  With ``hot_sweeps`` > 0, after each full sweep that has not
     converged the hot contacts (:func:`engine.solver.nlgs.hot_list`, ``factor``) are swept
     ``hot_sweeps`` more times in the same race-free group order, as
     :func:`engine.solver.nlgs.iterate_hot` does on one thread.  ``q`` (n,), ``hot`` (n,)
     int32 and ``hstart`` (2T + 1,) int64 are work arrays (``q`` may be empty when
-    ``hot_sweeps`` is 0); ``min_par``: see :func:`_phases`."""
+    ``hot_sweeps`` is 0); ``min_par``: see :func:`_phases`; ``done`` the step's sweeps of
+    earlier calls, ``nc`` and ``K`` the chains (:func:`sweep_groups`)."""
     if n == 0 and nl == 0:
         return 0, 0.0
     res = 0.0
     for it in range(max_iter):
-        res = sweep_groups(T, G, nl, C, B, L, relax, q, min_par)
+        res = sweep_groups(T, G, nl, C, B, L, relax, q, min_par, done + it, nc, K)
         if res < tol:
             return it + 1, res
         if hot_sweeps == 0 or n == 0:
@@ -306,7 +310,8 @@ def iterate_groups(T, n, nl, G, C, B, L, relax, tol, max_iter, hot_sweeps, facto
     return max_iter, res
 
 
-def iterate_parallel(T, n, nl, C, B, L, relax, tol, max_iter, mix=None, hot_sweeps=0):
+def iterate_parallel(T, n, nl, C, B, L, relax, tol, max_iter, mix=None, hot_sweeps=0,
+                     chains=None):
     """:func:`engine.solver.nlgs.iterate` on ``T`` domains (module docstring), its arguments
     as :func:`~engine.solver.kernels.iterate`'s.
 
@@ -315,8 +320,13 @@ def iterate_parallel(T, n, nl, C, B, L, relax, tol, max_iter, mix=None, hot_swee
     result depends on ``T`` only.  With ``mix`` (:func:`engine.solver.anderson.domain_mixer`)
     the sweeps are mixed as in :mod:`engine.solver.anderson` (its passes on the same
     threads).  Without it, with ``hot_sweeps`` > 0 the hot contacts are re-swept after each
-    full sweep (:func:`iterate_groups`).
+    full sweep (:func:`iterate_groups`).  ``chains``: (nc, :class:`~engine.solver.chains.
+    ChainWork`) of :func:`engine.solver.chains.chains_for`, the links' phase of each sweep
+    (default: the plain link sweep).
     """
+    if chains is None:
+        chains = chains_for(False, 0, L.i, L.j)
+    nc, K = chains
     T = int(T)
     body_dyn = B.dyn
     nloc = body_dyn.shape[0]
@@ -332,14 +342,14 @@ def iterate_parallel(T, n, nl, C, B, L, relax, tol, max_iter, mix=None, hot_swee
     G = Groups(start, mid, np.zeros((2 * T, 2)))
     with numba_threads(T):
         if mix is not None:
-            it, res = mix(T, n, gC, B, relax, G, PARALLEL_SWEEP_MIN_CONTACTS)
+            it, res = mix(T, n, gC, B, relax, G, PARALLEL_SWEEP_MIN_CONTACTS, chains)
         else:
             hot_sweeps = int(hot_sweeps)
             m = n if hot_sweeps > 0 else 0
             q, hot, hstart = np.empty(m), np.empty(m, np.int32), np.empty(2 * T + 1, np.int64)
             it, res = in_chunks(lambda done, m_: iterate_groups(
                 T, n, nl, G, gC, B, L, relax, tol, m_, hot_sweeps, HOT_FACTOR, q, hot, hstart,
-                PARALLEL_SWEEP_MIN_CONTACTS), max_iter, tol, n + nl)
+                PARALLEL_SWEEP_MIN_CONTACTS, done, nc, K), max_iter, tol, n + nl)
     scatter(n, order, gC.impulse, C.impulse)
     return it, res
 

@@ -175,16 +175,17 @@ def test_slope_config_defaults_are_its_own():
 @pytest.mark.parametrize("test", sorted(CONFIGS))
 def test_chain_solve_reaches_the_solver_and_conflicts_are_refused(test, monkeypatch, tmp_path):
     """``chain_solve=True`` is a keyword of every test: it ends in the compiled Options (the
-    test's own Scene.compile), and with Anderson mixing or two threads it is refused in one
-    line before anything is built."""
+    test's own Scene.compile), with Anderson mixing or two threads as well (since
+    2026-12-05), and a conflict of the other options is still refused in one line before
+    anything is built."""
     from engine import Scene
 
     with pytest.raises((InputError, ValueError)) as e:
-        getattr(experiments, test)(chain_solve=True, anderson=4, progress=False,
+        getattr(experiments, test)(chain_solve=True, anderson=4, relax=1.5, progress=False,
                                    history=str(tmp_path / "h.h5"))
-    assert "chain_solve" in str(e.value) and "\n" not in str(e.value)
-    with pytest.raises((InputError, ValueError)):
-        CONFIGS[test].from_kwargs(chain_solve=True, threads=2)
+    assert "relax" in str(e.value) and "\n" not in str(e.value)
+    for kw in (dict(anderson=4), dict(threads=2)):
+        assert CONFIGS[test].from_kwargs(chain_solve=True, **kw).solver.chain_solve
     seen = []
 
     def compile_(self, *a, **kw):

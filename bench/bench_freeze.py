@@ -33,12 +33,9 @@ for p in (str(HERE.parent), str(HERE), str(HERE / "peers")):
 
 import numpy as np  # noqa: E402
 
-from bench_residual import mould_model, peers_model  # noqa: E402
+from bench_residual import mould_model, peers_model, prepared_step  # noqa: E402
 from engine import step  # noqa: E402
-from engine.contact import detect  # noqa: E402
-from engine.integrator import free_velocity  # noqa: E402
 from engine.solver import kernels as K  # noqa: E402
-from engine.solver.nlgs import LINK_COLUMNS  # noqa: E402
 from record import Busy, machine, write  # noqa: E402
 
 FACTORS = (2.0, 1.0, 0.5, 0.1, 0.01)
@@ -48,28 +45,15 @@ SWEEPS = (0, 2, 4, 8)
 def solve_counting(model, state, factor, hot_sweeps, max_iter):
     """One step's solve from ``state`` (not modified) with the hot re-sweeps at ``factor``
     and ``hot_sweeps``, counting contact updates; the loop of kernels._iterate_hot."""
-    s = state.copy()
-    free_velocity(model, s)
-    detect(model, s)
+    s, C, B, L = prepared_step(model, state)
     c = s.contacts_buf
     n, nl, o = c.count, model.n_links, model.options
-    K.prepare(n, c.i, c.j, c.key, c.frame, c.gap, c.ri, c.rj, c.w, c.gterm, c.impulse,
-              model.body_dyn, s.vel6, s.warm_key, s.warm_impulse, o.dt, model.n_bodies)
-    wl = np.empty((nl, LINK_COLUMNS))
-    if nl:
-        K.link_prepare(nl, model.link_i, model.link_j, model.link_ref_length,
-                       model.link_stiffness, s.link_broken, s.position, model.body_dyn, s.vel6,
-                       s.link_impulse, s.link_normal, s.link_gap, wl, o.dt)
     q = np.empty(n)
     hot = np.empty(n, np.int32)
     bounds = np.full(1, c.n_pair, np.int64)
     hbounds = np.empty(1, np.int64)
     updates = 0
     res = np.inf
-    C = K.Contacts(c.i, c.j, c.frame, c.w, c.gterm, c.mu, c.ri, c.rj, c.impulse)
-    B = K.Bodies(model.body_dyn, s.vel6)
-    L = K.Links(model.link_i, model.link_j, s.link_normal, wl, model.link_unilateral,
-                s.link_impulse, model.link_order)
     for it in range(max_iter):
         num, den = K._full(n, c.n_pair, q, C, B, 1.0, False, True)
         res = K.links_then_residual(num, den, nl, L, B, 1.0)

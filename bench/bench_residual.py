@@ -110,6 +110,37 @@ def mould_model(scale: float, wire: bool, **options):
     return sc.compile(dt=1e-4, theta=0.5, tol=1e-4, max_iter=1000, **options)
 
 
+def prepared_step(model, state):
+    """The next step's problem, set up on a copy of ``state`` as the solve stage does (free
+    velocities, contacts, Delassus diagonals, warm start, the links' data): returns
+    ``(s, C, B, L)``, the copy and the sweeps' named tuples
+    (:class:`engine.solver.kernels.Contacts`, ``Bodies``, ``Links``) on it, for the probes
+    that sweep a step themselves (``s.contacts_buf.count`` contacts, ``model.n_links``
+    links).  ``state`` is not modified."""
+    from engine.contact import detect
+    from engine.integrator import free_velocity
+    from engine.solver import kernels as K
+    from engine.solver.nlgs import LINK_COLUMNS
+
+    s = state.copy()
+    free_velocity(model, s)
+    detect(model, s)
+    c = s.contacts_buf
+    n, nl, o = c.count, model.n_links, model.options
+    K.prepare(n, c.i, c.j, c.key, c.frame, c.gap, c.ri, c.rj, c.w, c.gterm, c.impulse,
+              model.body_dyn, s.vel6, s.warm_key, s.warm_impulse, o.dt, model.n_bodies)
+    wl = np.empty((nl, LINK_COLUMNS))
+    if nl:
+        K.link_prepare(nl, model.link_i, model.link_j, model.link_ref_length,
+                       model.link_stiffness, s.link_broken, s.position, model.body_dyn, s.vel6,
+                       s.link_impulse, s.link_normal, s.link_gap, wl, o.dt)
+    C = K.Contacts(c.i, c.j, c.frame, c.w, c.gterm, c.mu, c.ri, c.rj, c.impulse)
+    B = K.Bodies(model.body_dyn, s.vel6)
+    L = K.Links(model.link_i, model.link_j, s.link_normal, wl, model.link_unilateral,
+                s.link_impulse, model.link_order)
+    return s, C, B, L
+
+
 def peers_deposit(quick: bool, tol: float) -> dict:
     import common
     P = common.PARAMS

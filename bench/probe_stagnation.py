@@ -132,31 +132,16 @@ def setup(scale, seed, steps):
     """The mould deposit stepped ``steps`` times, and the next step's problem prepared."""
     sys.path.insert(0, str(HERE.parent))
     sys.path.insert(0, str(HERE))
-    from bench_residual import mould_model
+    from bench_residual import mould_model, prepared_step
     from engine import step
-    from engine.contact import detect
-    from engine.integrator import free_velocity
     from engine.solver import kernels as K
-    from engine.solver.nlgs import LINK_COLUMNS
 
     model, state = mould_model(scale, True, hot_sweeps=2)
     for _ in range(steps):
         step(model, state)
-    s = state.copy()
-    free_velocity(model, s)
-    detect(model, s)
+    s, C, B, L = prepared_step(model, state)
     c = s.contacts_buf
-    n, nl, o = c.count, model.n_links, model.options
-    K.prepare(n, c.i, c.j, c.key, c.frame, c.gap, c.ri, c.rj, c.w, c.gterm, c.impulse,
-              model.body_dyn, s.vel6, s.warm_key, s.warm_impulse, o.dt, model.n_bodies)
-    wl = np.empty((nl, LINK_COLUMNS))
-    K.link_prepare(nl, model.link_i, model.link_j, model.link_ref_length,
-                   model.link_stiffness, s.link_broken, s.position, model.body_dyn, s.vel6,
-                   s.link_impulse, s.link_normal, s.link_gap, wl, o.dt)
-    C = K.Contacts(c.i, c.j, c.frame, c.w, c.gterm, c.mu, c.ri, c.rj, c.impulse)
-    B = K.Bodies(model.body_dyn, s.vel6)
-    L = K.Links(model.link_i, model.link_j, s.link_normal, wl, model.link_unilateral,
-                s.link_impulse, model.link_order)
+    n, nl = c.count, model.n_links
     sweep = lambda: K.sweep_all(n, c.n_pair, nl, C, B, L, 1.0)  # noqa: E731
     return model, s, c, n, sweep
 

@@ -24,6 +24,7 @@ Writes bench/results/chains-<YYYYmmdd-HHMM>.json.
 from __future__ import annotations
 
 import argparse
+import json
 import sys
 import tempfile
 import time
@@ -110,6 +111,11 @@ def main(argv=None) -> int:
                   f"mean {r['sweeps_mean']:.1f} (median {r['sweeps_median']:.0f}, max "
                   f"{r['sweeps_max']}), {r['not_converged']} at max_iter; {r['answer']}",
                   flush=True)
+            if len(runs) < len(names):       # a long set: what is done is kept on disk
+                partial = record.RESULTS / f"chains-{a.test}-{a.law}-partial.json"
+                record.RESULTS.mkdir(parents=True, exist_ok=True)
+                partial.write_text(json.dumps(dict(runs=runs, threads=a.threads,
+                                                   scale=a.scale), indent=1))
     ratios = {}
     for hot in (0, 2):
         p, c = runs.get(f"plain_hot{hot}"), runs.get(f"chains_hot{hot}")
@@ -125,6 +131,7 @@ def main(argv=None) -> int:
     print("ratios (plain / chains): " + ", ".join(f"{k} {v:.2f}" for k, v in out["ratios"].items()))
     print(f"busy: {out['busy'].get('note', out['busy'])}")
     print(f"wrote {record.write(f'chains-{a.test}-{a.law}', out)}")
+    (record.RESULTS / f"chains-{a.test}-{a.law}-partial.json").unlink(missing_ok=True)
     return 0
 
 

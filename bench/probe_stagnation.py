@@ -2,6 +2,7 @@
 
     .venv/bin/python bench/probe_stagnation.py [--scale 0.1] [--step 1]
                                                [--sweeps 10000] [--admm-iters 60]
+                                               [--block 1,2,4,8] [--block-budget 3000]
                                                [--export step.npz]
     /usr/bin/python3 bench/probe_stagnation.py --siconos step.npz     # Debian's, with Siconos
 
@@ -28,7 +29,14 @@ apart without stepping on:
    impulses in N s side by side, normalised by ‖q‖), by how far r lies outside the
    Coulomb cones, and in the natural map with each contact's impulse in velocity units
    (W_nn p), beside our sweeps' answer in the same measures.
-3. ``--export``: the step as an npz (W, q, μ and our impulses after 1 000 sweeps), which
+3. ``--block 1,2,4,8``: Gauss–Seidel **by grain** (a block solve per grain, its
+   neighbours held, done by sweeping its contacts K times in a row before the next grain;
+   each contact belongs to the blocks of both its grains), against plain sweeps, for the
+   same work (``--block-budget`` contact updates per contact).  At a few points: the Quad
+   residual of a trial plain sweep (undone afterwards) and the local velocities' distance
+   to part 1's last sweep's, ‖H(v − v_ref)‖ / ‖H v_ref‖.  This is the "block solve per
+   grain, aimed at the local rolling and sliding" that part 1's error field points to.
+4. ``--export``: the step as an npz (W, q, μ and our impulses after 1 000 sweeps), which
    ``--siconos`` solves with Siconos's NSGS and ADMM at tol 1e-6 (run it with Debian's
    ``/usr/bin/python3``, which has ``python3-siconos``).
 
@@ -128,6 +136,77 @@ def admm(pb: Problem, rho: float, iters: int, log_at=(1, 3, 10, 30, 50, 60, 100,
 
 
 # ---------------------------------------------------------------- the engine's step
+def _block_pass():
+    """The njit kernel of part 3 (built on first use: ``--siconos`` runs without numba)."""
+    from numba import njit
+
+    from engine.solver import kernels as K
+
+    @njit(cache=False)
+    def block_pass(order, n_pair, C, B):
+        # each contact solved by the engine's own update, in the order given
+        for k in range(order.size):
+            a = order[k]
+            if a < n_pair:
+                K._contact(a, C, B, 1.0, False, False, False)
+            else:
+                K._contact(a, C, B, 1.0, True, False, False)
+    return block_pass
+
+
+def block_order(model, c, n, repeats):
+    """The contacts grain by grain (mobile grains in index order), each grain's list
+    ``repeats`` times in a row."""
+    ci, cj = c.i[:n].astype(np.int64), c.j[:n].astype(np.int64)
+    mob = model.body_dyn[:, 0] > 0
+    ends = np.concatenate([ci[mob[ci]], cj[mob[cj]]])
+    ids = np.concatenate([np.flatnonzero(mob[ci]), np.flatnonzero(mob[cj])])
+    o = np.argsort(ends, kind="stable")
+    ends, ids = ends[o], ids[o]
+    ptr = np.searchsorted(ends, np.arange(model.n_bodies + 1))
+    parts = [np.tile(ids[ptr[b]:ptr[b + 1]], repeats) for b in range(model.n_bodies)
+             if ptr[b + 1] > ptr[b]]
+    return np.concatenate(parts).astype(np.int64)
+
+
+def probe_blocks(model, s, c, n, sweep, H, start, vref, repeats_list, budget):
+    """Part 3 (module doc): {label: [(work in sweeps, trial Quad, velocity error)]}."""
+    block_pass = _block_pass()
+    C, B = sweep.C, sweep.B
+    uref = np.linalg.norm(H @ vref.ravel())
+    vel0, imp0, links0 = start
+
+    def trial():
+        v, p, lk = s.vel6.copy(), c.impulse.copy(), s.link_impulse.copy()
+        quad = float(sweep())
+        s.vel6[:], c.impulse[:], s.link_impulse[:] = v, p, lk
+        return quad
+
+    out = {}
+    for repeats in [0] + list(repeats_list):
+        s.vel6[:], c.impulse[:], s.link_impulse[:] = vel0, imp0, links0
+        order = block_order(model, c, n, repeats) if repeats else None
+        work, mark, log = 0.0, 1.0, []
+        while work < budget:
+            if repeats:
+                block_pass(order, c.n_pair, C, B)
+                sweep.links()
+                work += order.size / n
+            else:
+                sweep()
+                work += 1.0
+            if work >= mark or work >= budget:
+                err = float(np.linalg.norm(H @ (s.vel6 - vref).ravel()) / uref)
+                log.append(dict(work_sweeps=round(work, 2), quad=trial(), velocity_error=err))
+                mark = max(2 * mark, np.floor(work) + 1)
+        label = f"block K={repeats}" if repeats else "plain"
+        out[label] = log
+        print(label + ":", " ".join(f"[{r['work_sweeps']:.0f} sweeps: Quad {r['quad']:.2e}, "
+                                     f"velocities {r['velocity_error']:.2f}]" for r in log[-5:]),
+              flush=True)
+    return out
+
+
 def setup(scale, steps):
     """The mould deposit stepped ``steps`` times, and the next step's problem prepared."""
     sys.path.insert(0, str(HERE.parent))
@@ -142,7 +221,11 @@ def setup(scale, steps):
     s, C, B, L = prepared_step(model, state)
     c = s.contacts_buf
     n, nl = c.count, model.n_links
-    sweep = lambda: K.sweep_all(n, c.n_pair, nl, C, B, L, 1.0)  # noqa: E731
+
+    def sweep():
+        return K.sweep_all(n, c.n_pair, nl, C, B, L, 1.0)
+    sweep.C, sweep.B = C, B
+    sweep.links = lambda: K.link_sweep(nl, L, B, 1.0)
     return model, s, c, n, sweep
 
 
@@ -281,6 +364,9 @@ def main(argv=None):
     ap.add_argument("--step", type=int, default=1, help="engine steps before the probed one")
     ap.add_argument("--sweeps", type=int, default=10000)
     ap.add_argument("--admm-iters", type=int, default=60)
+    ap.add_argument("--block", default="", help="part 3: block repeats K, e.g. 1,2,4,8")
+    ap.add_argument("--block-budget", type=int, default=3000,
+                    help="part 3: contact updates per contact for each variant")
     ap.add_argument("--export", default=None, help="write the step's problem to this npz")
     ap.add_argument("--siconos", default=None, help="solve an exported npz with Siconos")
     a = ap.parse_args(argv)
@@ -288,6 +374,12 @@ def main(argv=None):
         return siconos(a.siconos)
     if a.sweeps < 1000 or a.admm_iters < 1 or a.step < 0:
         ap.error("--sweeps must be >= 1000, --admm-iters >= 1, --step >= 0")
+    try:
+        repeats = [int(k) for k in a.block.split(",") if k.strip()]
+    except ValueError:
+        ap.error(f"--block must be a comma-separated list of integers, got {a.block!r}")
+    if any(k < 1 or k > 64 for k in repeats) or a.block_budget < 1:
+        ap.error("--block repeats must be in [1, 64] and --block-budget >= 1")
     sys.path.insert(0, str(HERE))
     from record import Busy, machine, write
 
@@ -312,11 +404,16 @@ def main(argv=None):
     t = time.perf_counter()
     rows, field = probe_sweeps(model, s, c, n, sweep, a.sweeps, H)
     print(f"{a.sweeps} sweeps in {time.perf_counter() - t:.0f} s", flush=True)
+    vref = s.vel6.copy()
     for r in rows:
         print(f"sweep {r['sweep']:6d}: Quad {r['quad']:.2e}, full ||W dp|| {r['full_change']:.2e}"
               f", velocities {r['velocity_error']:.2f} from the last sweep's (max "
               f"{1e3 * r['max_speed_error']:.2f} mm/s)")
     print("error field:", field)
+    blocks = None
+    if a.block:
+        blocks = probe_blocks(model, s, c, n, sweep, H, (vel0, imp0, links0), vref,
+                              repeats, a.block_budget)
     t = time.perf_counter()
     r, z, log = admm(pb, 1.0, a.admm_iters)
     admm_m = dict(rho=1.0, iterations=a.admm_iters, seconds=time.perf_counter() - t,
@@ -331,7 +428,8 @@ def main(argv=None):
         print("wrote", a.export)
     out = dict(machine=machine(), scale=a.scale, seed=0, step_index=a.step,
                bodies=model.n_bodies, contacts=n, sweeps=rows, error_field=field,
-               ours_after_1000=ours_m, admm=admm_m, busy=busy.finish())
+               ours_after_1000=ours_m, admm=admm_m, blocks=blocks,
+               block_budget=a.block_budget if blocks else None, busy=busy.finish())
     print("wrote", write("stagnation", out))
 
 

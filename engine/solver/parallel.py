@@ -37,7 +37,7 @@ from numba import njit, prange
 from ..stop import in_chunks
 from ..threads import numba_threads
 
-from ..model import DYN_INV_INERTIA, DYN_INV_MASS, DYN_LINE
+from ..model import DYN_INV_INERTIA, DYN_INV_MASS, DYN_LINE, DYN_RADIUS
 from .chains import chains_for, link_phase
 from .kernels import HOT_FACTOR, Contacts, _contact, _span, hot_list
 
@@ -46,6 +46,24 @@ from .kernels import HOT_FACTOR, Contacts, _contact, _span, hot_list
 #: each group's contacts touching an immobile body start, ``acc`` (2T, 2) the groups' Quad
 #: sums of the last pass (work array).
 Groups = namedtuple("Groups", "start mid acc")
+
+
+@njit(cache=True, inline="always")
+def _mobile(b, body_dyn):
+    """Body ``b`` moves (a free or force-driven body; not fixed, nor a static wall)."""
+    return body_dyn[b, DYN_INV_MASS] != 0.0 or body_dyn[b, DYN_INV_INERTIA] != 0.0
+
+
+@njit(cache=True, inline="always")
+def _in_stream(a, c_i, c_j, body_dyn):
+    """Contact ``a`` counts where :func:`partition` cuts the bodies: between two spheres
+    (walls have no radius), neither moving along a line (shared), one of them at least
+    mobile (two immobile bodies are not solved)."""
+    j = c_j[a]
+    i = c_i[a]
+    if body_dyn[j, DYN_RADIUS] == 0.0 or body_dyn[i, DYN_LINE] != 0.0 or body_dyn[j, DYN_LINE] != 0.0:
+        return False  # (a body moving along a line touches every domain: shared)
+    return _mobile(i, body_dyn) or _mobile(j, body_dyn)
 
 
 @njit(cache=True)
@@ -67,21 +85,35 @@ def partition(n, T, c_i, c_j, body_dyn, nloc, group, start, order, mid):
         others touch an immobile body (a fixed wall or sphere that several groups touch).
     """
     ng = 2 * T
-    # domain of each local body: cut where the sphere–sphere part of the stream reaches s/T
+    # domain of each local body: the bodies in local order, cut where the contacts they touch
+    # reach s/T, each sphere–sphere contact counted half on each of its two bodies (a
+    # contact between two domains then weighs the same on both sides, so the interiors come
+    # out even) or whole on its mobile one: the contacts with a fixed sphere count (a heap
+    # spread on a floor of fixed beads has many, and the interiors' sweeps do them); the
+    # walls' contacts do not (they come after the spatial stream)
     dom = np.empty(nloc, np.int32)
-    n_ss = 0
+    load = np.zeros(nloc, np.int64)
+    total = 0
     for a in range(n):
-        if body_dyn[c_j[a], DYN_LINE] == 0.0 and body_dyn[c_j[a], DYN_INV_MASS] != 0.0:
-            n_ss += 1
+        if _in_stream(a, c_i, c_j, body_dyn):
+            i = c_i[a]
+            j = c_j[a]
+            if not _mobile(i, body_dyn):
+                load[j] += 2
+            elif not _mobile(j, body_dyn):
+                load[i] += 2
+            else:
+                load[i] += 1
+                load[j] += 1
+            total += 2
     cuts = np.full(T, nloc, np.int64)  # local index where domain s + 1 starts
-    seen = 0
+    carried = 0
     s = 0
-    for a in range(n):
-        if body_dyn[c_j[a], DYN_LINE] == 0.0 and body_dyn[c_j[a], DYN_INV_MASS] != 0.0:
-            while s < T - 1 and seen >= (s + 1) * n_ss // T:
-                cuts[s] = max(c_i[a], c_j[a])
-                s += 1
-            seen += 1
+    for b in range(nloc):
+        carried += load[b]
+        while s < T - 1 and carried * T >= (s + 1) * total:
+            cuts[s] = b + 1
+            s += 1
     d = 0
     for b in range(nloc):
         while d < T - 1 and b >= cuts[d]:

@@ -213,6 +213,66 @@ def test_partition_puts_contacts_with_immobile_bodies_last(T):
     assert (group[cj == lid] == 2 * T - 1).all()
 
 
+def _heap_on_fixed_beads(seed=3):
+    """Grains on a floor of fixed beads (as the slope test's), spread by a few steps: many
+    contacts touch a fixed sphere, none a wall."""
+    from engine.experiments.slope import hex_floor
+
+    rng = np.random.default_rng(seed)
+    r = 2.5e-4
+    floor = hex_floor(r, 6e-3)
+    xy = rng.uniform(-4e-3, 4e-3, (900, 2))
+    z = 3.2 * r + rng.uniform(0.0, 3e-3, 900)   # floor beads centred at z = r
+    keep = np.ones(900, bool)  # drop the grains that overlap one placed before them
+    pts = np.column_stack([xy, z])
+    for a in range(900):
+        if keep[a] and a:
+            d = np.linalg.norm(pts[:a][keep[:a]] - pts[a], axis=1)
+            keep[a] = d.min() > 2.0 * r
+    s = Scene(gravity=(0, 0, -G))
+    s.add_spheres(pts[keep], r, density=2650.0)
+    rubber = s.add_spheres(floor, r, density=1000.0, group="rubber")
+    s.fix(rubber)
+    s.interact("rubber", "rubber", None)
+    s.interact("sand", "sand", laws.Coulomb(mu=0.5))
+    s.interact("sand", "rubber", laws.Coulomb(mu=0.8))
+    model, state = s.compile(dt=1e-4, tol=1e-4, max_iter=200)
+    for _ in range(150):
+        step(model, state)
+    return model, state
+
+
+def test_partition_balances_the_interiors_on_a_floor_of_fixed_beads():
+    """The domains are cut where the contacts the bodies touch reach half, each contact
+    counted half on each body or whole on its mobile one.  Then the two interiors (swept at
+    once) differ by less than one body's share: at most twice the largest number of
+    contacts of one body.  Before 2026-12-05 the contacts with a fixed sphere were not
+    counted, and on the paper-scale slope spread on its floor the interiors were 33 000 and
+    20 000 contacts (docs/speed.md)."""
+    from engine.solver.kernels import layout
+    from engine.solver.parallel import partition
+
+    model, state = _heap_on_fixed_beads()
+    c = state.contacts
+    n, nb, T = len(c.i), model.n_bodies, 2
+    fixed = model.body_dyn[:, 0] == 0.0
+    ci, cj = c.i.astype(np.int32), c.j.astype(np.int32)
+    on_floor = fixed[ci] ^ fixed[cj]
+    assert on_floor.sum() > 0.2 * n, "the scene must have many contacts with fixed beads"
+    loc, perm = np.full(nb, -1, np.int32), np.empty(nb, np.int32)
+    li, lj = np.empty(n, np.int32), np.empty(n, np.int32)
+    k = layout(n, ci, cj, 0, ci[:0], cj[:0], loc, perm, li, lj, li[:0], lj[:0])
+    group, order = np.empty(n, np.int32), np.empty(n, np.int32)
+    start, mid = np.empty(2 * T + 1, np.int64), np.empty(2 * T, np.int64)
+    partition(n, T, li, lj, model.body_dyn[perm[:k]], k, group, start, order, mid)
+    sizes = np.diff(start)
+    solved = ~(fixed[ci] & fixed[cj])
+    coordination = np.bincount(np.concatenate([ci[solved], cj[solved]]), minlength=nb)
+    assert sizes[3] == 0                          # no shared contact: no wall
+    assert sizes.sum() == n
+    assert abs(int(sizes[0]) - int(sizes[1])) <= 2 * coordination.max(), sizes
+
+
 def test_parallel_with_wire_and_driven_wall():
     """Links (swept on one thread after the contacts) and a pressure-driven lid (its
     contacts are shared by every domain) give the serial result within tolerance."""

@@ -2,8 +2,10 @@
 
 The bodies are split into ``T`` domains along the contact stream (the broadphase emits
 contacts slab by slab through space, :func:`engine.contact.broadphase.build_pairs`, and the
-sweep's local body numbering follows that stream, :func:`engine.solver.nlgs.layout`): domain
-``s`` holds the bodies first touched by the ``s``-th ``1/T`` of the sphere–sphere contacts.
+sweep's local body numbering follows that stream, :func:`engine.solver.nlgs.layout`): the
+bodies in that order are cut where the sphere–sphere contacts they touch reach ``s/T``
+(each contact counted half on each of its bodies, or whole on its mobile one when the other
+is a fixed sphere), so the interiors come out even (:func:`partition`).
 Each contact then falls in one group:
 
 * **interior** ``s`` (both mobile bodies in domain ``s``, or one in ``s`` and the other

@@ -3,9 +3,9 @@
 The bodies are split into ``T`` domains along the contact stream (the broadphase emits
 contacts slab by slab through space, :func:`engine.contact.broadphase.build_pairs`, and the
 sweep's local body numbering follows that stream, :func:`engine.solver.nlgs.layout`): the
-bodies in that order are cut where the sphere–sphere contacts they touch reach ``s/T``
-(each contact counted half on each of its bodies, or whole on its mobile one when the other
-is a fixed sphere), so the interiors come out even (:func:`partition`).
+bodies in that order are cut where the contacts they touch reach ``s/T`` (each contact
+counted half on each of its bodies, or whole on its mobile one when the other is immobile),
+so the interiors come out even (:func:`partition`).
 Each contact then falls in one group:
 
 * **interior** ``s`` (both mobile bodies in domain ``s``, or one in ``s`` and the other
@@ -39,7 +39,7 @@ from numba import njit, prange
 from ..stop import in_chunks
 from ..threads import numba_threads
 
-from ..model import DYN_INV_INERTIA, DYN_INV_MASS, DYN_LINE, DYN_RADIUS
+from ..model import DYN_INV_INERTIA, DYN_INV_MASS, DYN_LINE
 from .chains import chains_for, link_phase
 from .kernels import HOT_FACTOR, Contacts, _contact, _span, hot_list
 
@@ -57,14 +57,14 @@ def _mobile(b, body_dyn):
 
 
 @njit(cache=True, inline="always")
-def _in_stream(a, c_i, c_j, body_dyn):
-    """Contact ``a`` counts where :func:`partition` cuts the bodies: between two spheres
-    (walls have no radius), neither moving along a line (shared), one of them at least
-    mobile (two immobile bodies are not solved)."""
-    j = c_j[a]
+def _counted(a, c_i, c_j, body_dyn):
+    """Contact ``a`` counts where :func:`partition` cuts the bodies: neither body moves
+    along a line (such a contact is shared), and one at least is mobile (two immobile
+    bodies are not solved)."""
     i = c_i[a]
-    if body_dyn[j, DYN_RADIUS] == 0.0 or body_dyn[i, DYN_LINE] != 0.0 or body_dyn[j, DYN_LINE] != 0.0:
-        return False  # (a body moving along a line touches every domain: shared)
+    j = c_j[a]
+    if body_dyn[i, DYN_LINE] != 0.0 or body_dyn[j, DYN_LINE] != 0.0:
+        return False
     return _mobile(i, body_dyn) or _mobile(j, body_dyn)
 
 
@@ -88,16 +88,16 @@ def partition(n, T, c_i, c_j, body_dyn, nloc, group, start, order, mid):
     """
     ng = 2 * T
     # domain of each local body: the bodies in local order, cut where the contacts they touch
-    # reach s/T, each sphere–sphere contact counted half on each of its two bodies (a
-    # contact between two domains then weighs the same on both sides, so the interiors come
-    # out even) or whole on its mobile one: the contacts with a fixed sphere count (a heap
-    # spread on a floor of fixed beads has many, and the interiors' sweeps do them); the
-    # walls' contacts do not (they come after the spatial stream)
+    # reach s/T, each contact between two mobile bodies counted half on each (a contact
+    # between two domains then weighs the same on both sides, so the interiors come out
+    # even), one with an immobile body (a fixed sphere, a static wall) whole on its mobile
+    # one: the interior of that body's domain sweeps it (a heap spread on a floor of fixed
+    # beads has many such contacts)
     dom = np.empty(nloc, np.int32)
     load = np.zeros(nloc, np.int64)
     total = 0
     for a in range(n):
-        if _in_stream(a, c_i, c_j, body_dyn):
+        if _counted(a, c_i, c_j, body_dyn):
             i = c_i[a]
             j = c_j[a]
             if not _mobile(i, body_dyn):

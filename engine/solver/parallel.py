@@ -122,7 +122,7 @@ def partition(n, T, c_i, c_j, body_dyn, nloc, group, start, order, mid):
             d += 1
         if body_dyn[b, DYN_LINE] != 0.0:
             dom[b] = -2  # mobile wall: may touch every domain
-        elif body_dyn[b, DYN_INV_MASS] == 0.0 and body_dyn[b, DYN_INV_INERTIA] == 0.0:
+        elif not _mobile(b, body_dyn):
             dom[b] = -1  # immobile: never written
         else:
             dom[b] = d

@@ -46,14 +46,16 @@ VARIANTS = {"default (hot_sweeps=2)": {}, "relax=1.2": dict(relax=1.2),
 
 def slope_scene(scale: float):
     """(model on two threads, start state) of ``slope_deposit``'s scene, as the report's
-    `slope_w400_seed0` builds it."""
+    `slope_w400_seed0` builds it: the test's own defaults (:class:`SlopeConfig`) but for
+    the scale, the wire density, tol, dt and the thread count."""
+    from engine.experiments.common import solver_choice
+    from engine.experiments.config import SlopeConfig
     from engine.experiments.slope import _heap, _slope_start
 
-    cfg = SimpleNamespace(scale=scale, wire=True, wire_density=400e3, seed=0, sample=None,
-                          wire_law=None, neighbour_contact=False, dt=5e-5, theta=0.5,
-                          tol=1e-4, max_iter=1000, relax=1.0, anderson=0, threads=2,
-                          hot_sweeps=2, chain_solve=False, mu=0.5, mu_floor=0.8,
-                          mu_wire=0.3, rubber_radius=0.3e-3, floor_extent=5.0)
+    config = SlopeConfig.from_kwargs(scale=scale, wire_density=400e3, seed=0, dt=5e-5,
+                                     tol=1e-4, threads=2)
+    cfg = SimpleNamespace(**config.kwargs())
+    cfg.anderson, cfg.hot_sweeps = solver_choice(cfg.anderson, cfg.hot_sweeps)
     st, cfg.law = _slope_start(cfg)
     heap = _heap(st, cfg)
     return heap.model, heap.state

@@ -3,6 +3,7 @@
     .venv/bin/python bench/probe_stagnation.py [--scale 0.1] [--step 1]
                                                [--sweeps 10000] [--admm-iters 60]
                                                [--block 1,2,4,8] [--block-budget 3000]
+                                               [--laws 30000] [--ipm 6]
                                                [--export step.npz]
     /usr/bin/python3 bench/probe_stagnation.py --siconos step.npz     # Debian's, with Siconos
 
@@ -39,6 +40,22 @@ apart without stepping on:
 4. ``--export``: the step as an npz (W, q, μ and our impulses after 1 000 sweeps), which
    ``--siconos`` solves with Siconos's NSGS and ADMM at tol 1e-6 (run it with Debian's
    ``/usr/bin/python3``, which has ``python3-siconos``).
+5. ``--laws N``: the law, not the solver.  The same step in contact space (W, q as part 2,
+   the wire's link impulses held in q), N Gauss–Seidel sweeps from the warm start, in the
+   buffer order, each contact solved with its diagonal block twice over: with the
+   engine's Coulomb law (Signorini, then the disk: non-associated, no dilatancy) and with
+   the associated law (the projection on the cone in the block's metric: the convex
+   relaxation, CCP, whose sliding contacts dilate).  At a few sweeps: the Quad residual,
+   the local velocities' and the impulses' distance to the same law's last sweep, the
+   sliding contacts, the natural-map residual.  If only the Coulomb run stalls, the
+   stagnation comes from the law's non-associated coupling, not from W's conditioning.
+6. ``--ipm N``: the classical way to a Coulomb solution through convex problems (De
+   Saxcé's bipotential): N fixed-point iterations, each solving the associated problem
+   with the normal velocities shifted by μ ‖u_T‖ of the previous answer, exactly, by a
+   primal-dual interior-point method (second-order cones, Nesterov–Todd scaling, Mehrotra
+   predictor-corrector; each Newton system in body space, SuperLU).  For each iteration:
+   the shift's relative change, the answer's natural-map residual, and the Quad residual
+   of 1, 10, 100 and 1 000 Coulomb sweeps (part 5's) started from it.
 
 No timing is used for a conclusion (the wall times printed are indicative).
 JSON: bench/results/stagnation-*.json.
@@ -135,6 +152,151 @@ def admm(pb: Problem, rho: float, iters: int, log_at=(1, 3, 10, 30, 50, 60, 100,
     return r, z, log
 
 
+# ---------------------------------------------------------------- part 6: interior point
+_J = np.array([1.0, -1.0, -1.0])
+
+
+def _jdot(a, b):
+    """aᵀ J b for each (m, 3) row: the second-order cone's Lorentz product."""
+    return (a * b * _J).sum(1)
+
+
+def _jprod(a, b):
+    """The Jordan product a ∘ b of the second-order cone, row by row."""
+    out = np.empty_like(a)
+    out[:, 0] = (a * b).sum(1)
+    out[:, 1:] = a[:, :1] * b[:, 1:] + b[:, :1] * a[:, 1:]
+    return out
+
+
+def _jsolve(lam, r):
+    """d with lam ∘ d = r, row by row."""
+    l0, l1 = lam[:, 0], lam[:, 1:]
+    d0 = (l0 * r[:, 0] - (l1 * r[:, 1:]).sum(1)) / (l0 * l0 - (l1 * l1).sum(1))
+    return np.column_stack([d0, (r[:, 1:] - l1 * d0[:, None]) / l0[:, None]])
+
+
+def _nt_scaling(x, y):
+    """Nesterov–Todd scaling of each cone: (W, W⁻¹, λ) with W y = W⁻¹ x = λ."""
+    xn, yn = np.sqrt(_jdot(x, x)), np.sqrt(_jdot(y, y))
+    xb, yb = x / xn[:, None], y / yn[:, None]
+    g = np.sqrt(0.5 * (1.0 + (xb * yb).sum(1)))
+    wb = (xb + yb * _J) / (2.0 * g[:, None])
+    v = wb.copy()
+    v[:, 0] += 1.0
+    v /= np.sqrt(2.0 * (wb[:, 0] + 1.0))[:, None]
+    beta = np.sqrt(xn / yn)
+    Jm = np.diag(_J)
+    W = beta[:, None, None] * (2.0 * v[:, :, None] * v[:, None, :] - Jm)
+    Jv = v * _J
+    Wi = (1.0 / beta)[:, None, None] * (2.0 * Jv[:, :, None] * Jv[:, None, :] - Jm)
+    return W, Wi, np.einsum("kij,kj->ki", W, y)
+
+
+def _max_step(x, d):
+    """The largest α with x + α d in the cones (inf if none binds)."""
+    a, b, c = _jdot(d, d), 2.0 * _jdot(x, d), _jdot(x, x)
+    alpha = np.full(len(x), np.inf)
+    disc = b * b - 4.0 * a * c
+    with np.errstate(invalid="ignore", divide="ignore"):
+        sq = np.sqrt(np.maximum(disc, 0.0))
+        for r in ((-b - sq) / (2.0 * a), (-b + sq) / (2.0 * a)):
+            ok = (disc >= 0.0) & (np.abs(a) > 1e-300) & (r > 0.0)
+            alpha = np.where(ok, np.minimum(alpha, r), alpha)
+        lin = -c / b
+    alpha = np.where((np.abs(a) <= 1e-300) & (lin > 0.0), np.minimum(alpha, lin), alpha)
+    neg = d[:, 0] < 0.0
+    alpha = np.where(neg, np.minimum(alpha, -x[:, 0] / np.where(neg, d[:, 0], -1.0)), alpha)
+    return float(alpha.min())
+
+
+def _block_diag(B):
+    import scipy.sparse as sp
+
+    m = len(B)
+    rows = np.repeat(np.arange(3 * m).reshape(m, 3, 1), 3, 2)
+    cols = np.repeat(np.arange(3 * m).reshape(m, 1, 3), 3, 1)
+    return sp.csr_matrix((B.ravel(), (rows.ravel(), cols.ravel())), shape=(3 * m, 3 * m))
+
+
+def soc_ipm(A, c, tol=1e-9, iters=80):
+    """min ½ xᵀ A Aᵀ x + cᵀ x over a product of 3D second-order cones (x flat, 3 per
+    cone): primal-dual interior point with Nesterov–Todd scaling and Mehrotra's
+    predictor-corrector, each Newton system (A Aᵀ + W⁻²) solved through the Woodbury
+    identity in the space of A's columns (I + Aᵀ W² A, SuperLU).  Returns (x, iterations)."""
+    import scipy.sparse as sp
+    import scipy.sparse.linalg as spl
+
+    m = len(c) // 3
+    cn = max(np.linalg.norm(c), 1e-300)
+    x = np.zeros((m, 3))
+    x[:, 0] = np.sqrt(cn / np.sqrt(m))
+    y = x.copy()
+    e = np.zeros((m, 3))
+    e[:, 0] = 1.0
+    At = A.T.tocsr()
+    for k in range(iters):
+        rd = A @ (At @ x.ravel()) + c - y.ravel()
+        gap = (x * y).sum() / m
+        if k == 0:
+            gap0 = gap
+        if gap < 1e-10 * gap0 and np.linalg.norm(rd) / cn < tol:
+            break
+        W, Wi, lam = _nt_scaling(x, y)
+        Wi2 = np.einsum("kij,kjl->kil", Wi, Wi)
+        G = _block_diag(np.einsum("kij,kjl->kil", W, W))     # (W⁻²)⁻¹
+        lu = spl.splu((sp.identity(A.shape[1]) + (At @ G) @ A).tocsc(),
+                      permc_spec="MMD_AT_PLUS_A")
+
+        def newton(rc):
+            d = _jsolve(lam, rc)
+            wd = np.einsum("kij,kj->ki", Wi, d)
+            g = G @ (wd.ravel() - rd)
+            dx = (g - G @ (A @ lu.solve(At @ g))).reshape(m, 3)
+            return dx, wd - np.einsum("kij,kj->ki", Wi2, dx)
+
+        ll = _jprod(lam, lam)
+        dxa, dya = newton(-ll)
+        a = min(1.0, _max_step(x, dxa), _max_step(y, dya))
+        sigma = (((x + a * dxa) * (y + a * dya)).sum() / m / gap) ** 3
+        corr = _jprod(np.einsum("kij,kj->ki", Wi, dxa), np.einsum("kij,kj->ki", W, dya))
+        dx, dy = newton(sigma * gap * e - ll - corr)
+        a = min(1.0, 0.99 * _max_step(x, dx), 0.99 * _max_step(y, dy))
+        x, y = x + a * dx, y + a * dy
+    return x.ravel(), k
+
+
+def probe_ipm(pb, H, minv, outers, law_sweeps_from):
+    """Part 6 (module doc): [rows per outer iteration]."""
+    import scipy.sparse as sp
+
+    n = pb.mu.size
+    sc = 1.0 / np.sqrt(pb.W.diagonal()[0::3])
+    D = np.column_stack([sc / pb.mu, sc, sc]).ravel()        # p = D x, x in the unit cones
+    A = (sp.diags(D) @ H @ sp.diags(np.sqrt(minv))).tocsr()
+    shift = np.zeros(3 * n)
+    rows = []
+    for outer in range(outers):
+        t = time.perf_counter()
+        x, its = soc_ipm(A, D * (pb.q + shift))
+        p = D * x
+        u = (pb.W @ p + pb.q).reshape(-1, 3)
+        new = np.zeros((n, 3))
+        new[:, 0] = pb.mu * np.hypot(u[:, 1], u[:, 2])
+        change = float(np.linalg.norm(new.ravel() - shift) / max(np.linalg.norm(new), 1e-300))
+        shift = new.ravel()
+        row = dict(outer=outer, ipm_iterations=int(its), seconds=time.perf_counter() - t,
+                   shift_change=change, natural=pb.natural(p),
+                   natural_scaled=pb.natural(p, True), cone_violation=pb.cone_violation(p),
+                   coulomb_sweeps_from_it=law_sweeps_from(p))
+        rows.append(row)
+        print(f"outer {outer}: {its} interior-point iterations ({row['seconds']:.0f} s), "
+              f"shift change {change:.2e}, natural (scaled) {row['natural_scaled']:.2e}; "
+              "Coulomb sweeps from it:", " ".join(f"{k}: {q:.1e}" for k, q in
+                                                  row["coulomb_sweeps_from_it"]), flush=True)
+    return rows
+
+
 # ---------------------------------------------------------------- the engine's step
 def _block_pass():
     """The njit kernel of part 3 (built on first use: ``--siconos`` runs without numba)."""
@@ -204,6 +366,131 @@ def probe_blocks(model, s, c, n, sweep, H, start, vref, repeats_list, budget):
         print(label + ":", " ".join(f"[{r['work_sweeps']:.0f} sweeps: Quad {r['quad']:.2e}, "
                                      f"velocities {r['velocity_error']:.2f}]" for r in log[-5:]),
               flush=True)
+    return out
+
+
+def _law_sweeps():
+    """The njit kernel of part 5 (built on first use, as part 3's)."""
+    from numba import njit
+
+    @njit(cache=False)
+    def law_sweeps(indptr, indices, data, q, mu, p, wd, sweeps, associated, quad):
+        # Gauss-Seidel in contact space on u = W p + q, contacts in buffer order; the
+        # local problem with W's diagonal block: the engine's Coulomb update (Signorini,
+        # then the disk), or the associated law's (the projection of -f on the cone in
+        # the metric of the diagonal block: CCP, the friction cone's normality rule)
+        n = mu.size
+        for k in range(sweeps):
+            num = 0.0
+            den = 0.0
+            for a in range(n):
+                r = 3 * a
+                u0 = q[r]
+                for e in range(indptr[r], indptr[r + 1]):
+                    u0 += data[e] * p[indices[e]]
+                u1 = q[r + 1]
+                for e in range(indptr[r + 1], indptr[r + 2]):
+                    u1 += data[e] * p[indices[e]]
+                u2 = q[r + 2]
+                for e in range(indptr[r + 2], indptr[r + 3]):
+                    u2 += data[e] * p[indices[e]]
+                wn = wd[r]
+                wt = wd[r + 1]
+                fn = u0 - wn * p[r]
+                ft = u1 - wt * p[r + 1]
+                fs = u2 - wt * p[r + 2]
+                if associated:
+                    sn = np.sqrt(wn)
+                    st = np.sqrt(wt)
+                    zn = -fn / sn
+                    zt = -ft / st
+                    zs = -fs / st
+                    m = mu[a] * st / sn
+                    nt = np.sqrt(zt * zt + zs * zs)
+                    if nt <= m * zn:
+                        pass
+                    elif m * nt <= -zn:
+                        zn = 0.0
+                        zt = 0.0
+                        zs = 0.0
+                    else:
+                        y = (zn + m * nt) / (1.0 + m * m)
+                        f = m * y / nt
+                        zn = y
+                        zt *= f
+                        zs *= f
+                    pn = zn / sn
+                    pt = zt / st
+                    ps = zs / st
+                elif fn >= 0.0:
+                    pn = 0.0
+                    pt = 0.0
+                    ps = 0.0
+                else:
+                    pn = -fn / wn
+                    pt = -ft / wt
+                    ps = -fs / wt
+                    nt = np.sqrt(pt * pt + ps * ps)
+                    if nt > mu[a] * pn:
+                        f = mu[a] * pn / nt
+                        pt *= f
+                        ps *= f
+                dn = pn - p[r]
+                dt = pt - p[r + 1]
+                ds = ps - p[r + 2]
+                num += (wn * dn) ** 2 + (wt * dt) ** 2 + (wt * ds) ** 2
+                den += (wn * pn) ** 2 + (wt * pt) ** 2 + (wt * ps) ** 2
+                p[r] = pn
+                p[r + 1] = pt
+                p[r + 2] = ps
+            quad[k] = np.sqrt(num / den) if den > 0.0 else 0.0
+    return law_sweeps
+
+
+def probe_laws(model, pb, H, vfree, minv, p0, nsweeps):
+    """Part 5 (module doc): {law: [rows at a few sweeps]}."""
+    law_sweeps = _law_sweeps()
+    W = pb.W.tocsr()
+    W.sort_indices()
+    wd = W.diagonal().copy()
+    mob = model.body_dyn[:, 0] > 0
+    marks = sorted({k for k in (1, 10, 100, 300, 1000, 3000, 10000, 20000) if k < nsweeps}
+                   | {nsweeps})
+    out = {}
+    for law, assoc in (("coulomb", False), ("associated", True)):
+        p = p0.copy()
+        snaps, done = {}, 0
+        for k in marks:
+            quad = np.zeros(k - done)
+            law_sweeps(W.indptr, W.indices, W.data, pb.q, pb.mu, p, wd, k - done, assoc, quad)
+            done = k
+            snaps[k] = (p.copy(), float(quad[-1]))
+        pref = snaps[nsweeps][0]
+        vref = vfree + minv * (H.T @ pref)
+        uref = np.linalg.norm(H @ vref)
+        rows = []
+        for k, (pk, quad) in snaps.items():
+            v = vfree + minv * (H.T @ pk)
+            dv = (v - vref).reshape(-1, 6)[mob, :3]
+            pr = pk.reshape(-1, 3)
+            slide = (pr[:, 0] > 0) & (np.hypot(pr[:, 1], pr[:, 2]) >= 0.999 * pb.mu * pr[:, 0])
+            rows.append(dict(sweep=k, quad=quad,
+                             velocity_error=float(np.linalg.norm(H @ (v - vref)) / uref),
+                             rms_speed_error=float(np.sqrt((dv ** 2).sum(1).mean())),
+                             impulse_error=float(np.linalg.norm(wd * (pk - pref))
+                                                 / np.linalg.norm(wd * pref)),
+                             impulse_norm=float(np.linalg.norm(wd * pk)),
+                             sliding=int(slide.sum()), natural=pb.natural(pk),
+                             natural_scaled=pb.natural(pk, True)))
+        vv = vref.reshape(-1, 6)[mob, :3]
+        out[law] = dict(rows=rows, rms_speed=float(np.sqrt((vv ** 2).sum(1).mean())))
+        print(f"{law}: rms grain speed {1e3 * out[law]['rms_speed']:.3f} mm/s at the last sweep")
+        for r in rows:
+            print(f"  sweep {r['sweep']:6d}: Quad {r['quad']:.1e}, velocities "
+                  f"{r['velocity_error']:.3f} from the last sweep's (rms "
+                  f"{1e3 * r['rms_speed_error']:.4f} mm/s), impulses {r['impulse_error']:.2f},"
+                  f" sliding {r['sliding']}, natural (scaled) {r['natural_scaled']:.1e}",
+                  flush=True)
     return out
 
 
@@ -367,13 +654,19 @@ def main(argv=None):
     ap.add_argument("--block", default="", help="part 3: block repeats K, e.g. 1,2,4,8")
     ap.add_argument("--block-budget", type=int, default=3000,
                     help="part 3: contact updates per contact for each variant")
+    ap.add_argument("--laws", type=int, default=0,
+                    help="part 5: this many contact-space sweeps with the Coulomb and the "
+                         "associated law (0: skip)")
+    ap.add_argument("--ipm", type=int, default=0,
+                    help="part 6: this many De Saxce fixed-point iterations, each an "
+                         "interior-point solve (0: skip)")
     ap.add_argument("--export", default=None, help="write the step's problem to this npz")
     ap.add_argument("--siconos", default=None, help="solve an exported npz with Siconos")
     a = ap.parse_args(argv)
     if a.siconos:
         return siconos(a.siconos)
-    if a.sweeps < 1000 or a.admm_iters < 1 or a.step < 0:
-        ap.error("--sweeps must be >= 1000, --admm-iters >= 1, --step >= 0")
+    if a.sweeps < 1000 or a.admm_iters < 1 or a.step < 0 or a.laws < 0 or a.ipm < 0:
+        ap.error("--sweeps must be >= 1000, --admm-iters >= 1, --step >= 0, --laws >= 0, --ipm >= 0")
     try:
         repeats = [int(k) for k in a.block.split(",") if k.strip()]
     except ValueError:
@@ -394,7 +687,8 @@ def main(argv=None):
     for _ in range(1000):
         sweep()
     ours = c.impulse[:n].ravel().copy()
-    q = H @ (s.vel6.ravel() - minv * (H.T @ ours))
+    vfree = s.vel6.ravel() - minv * (H.T @ ours)
+    q = H @ vfree
     q[0::3] += c.gterm[:n]
     import scipy.sparse as sp
     W = (H @ sp.diags(minv) @ H.T).tocsc()
@@ -410,6 +704,21 @@ def main(argv=None):
               f", velocities {r['velocity_error']:.2f} from the last sweep's (max "
               f"{1e3 * r['max_speed_error']:.2f} mm/s)")
     print("error field:", field)
+    laws = None
+    if a.laws:
+        laws = probe_laws(model, pb, H, vfree, minv, imp0[:n].ravel().copy(), a.laws)
+    ipm = None
+    if a.ipm:
+        law_sweeps = _law_sweeps()
+        Wr = W.tocsr()
+        Wr.sort_indices()
+        wd = Wr.diagonal().copy()
+
+        def coulomb_from(p):
+            p, quad = p.copy(), np.zeros(1000)
+            law_sweeps(Wr.indptr, Wr.indices, Wr.data, q, pb.mu, p, wd, 1000, False, quad)
+            return [(k, float(quad[k - 1])) for k in (1, 10, 100, 1000)]
+        ipm = probe_ipm(pb, H, minv, a.ipm, coulomb_from)
     blocks = None
     if a.block:
         blocks = probe_blocks(model, s, c, n, sweep, H, (vel0, imp0, links0), vref,
@@ -428,7 +737,7 @@ def main(argv=None):
         print("wrote", a.export)
     out = dict(machine=machine(), scale=a.scale, seed=0, step_index=a.step,
                bodies=model.n_bodies, contacts=n, sweeps=rows, error_field=field,
-               ours_after_1000=ours_m, admm=admm_m, blocks=blocks,
+               ours_after_1000=ours_m, admm=admm_m, blocks=blocks, laws=laws, ipm=ipm,
                block_budget=a.block_budget if blocks else None, busy=busy.finish())
     print("wrote", write("stagnation", out))
 

@@ -47,8 +47,8 @@ apart without stepping on:
    the associated law (the projection on the cone in the block's metric: the convex
    relaxation, CCP, whose sliding contacts dilate).  At a few sweeps: the Quad residual,
    the local velocities' and the impulses' distance to the same law's last sweep, the
-   sliding contacts, the natural-map residual.  If only the Coulomb run stalls, the
-   stagnation comes from the law's non-associated coupling, not from W's conditioning.
+   sliding contacts, the natural-map residual.  If only the Coulomb run stalls, what
+   stops the sweeps comes with the law, not with W's conditioning alone.
 6. ``--ipm N``: the classical way to a Coulomb solution through convex problems (De
    Saxcé's bipotential): N fixed-point iterations, each solving the associated problem
    with the normal velocities shifted by μ ‖u_T‖ of the previous answer, exactly, by a

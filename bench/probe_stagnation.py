@@ -494,15 +494,20 @@ def probe_laws(model, pb, H, vfree, minv, p0, nsweeps):
     return out
 
 
-def setup(scale, steps):
-    """The mould deposit stepped ``steps`` times, and the next step's problem prepared."""
+def setup(scale, steps, scene="mould"):
+    """The mould deposit (or, ``scene="peers"``, the peers' deposit of ``make bench-peers``
+    at tol 1e-4 with its plain sweeps; ``scale`` unused) stepped ``steps`` times, and the
+    next step's problem prepared."""
     sys.path.insert(0, str(HERE.parent))
     sys.path.insert(0, str(HERE))
-    from bench_residual import mould_model, prepared_step
+    from bench_residual import mould_model, peers_model, prepared_step
     from engine import step
     from engine.solver import kernels as K
 
-    model, state = mould_model(scale, True, hot_sweeps=2)
+    if scene == "peers":
+        model, state = peers_model(1e-4)
+    else:
+        model, state = mould_model(scale, True, hot_sweeps=2)
     for _ in range(steps):
         step(model, state)
     s, C, B, L = prepared_step(model, state)
@@ -647,6 +652,8 @@ def siconos(npz):
 
 def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--scene", choices=("mould", "peers"), default="mould",
+                    help="the mould deposit (default) or the peers' deposit (bench/peers)")
     ap.add_argument("--scale", type=float, default=0.1)
     ap.add_argument("--step", type=int, default=1, help="engine steps before the probed one")
     ap.add_argument("--sweeps", type=int, default=10000)
@@ -679,10 +686,10 @@ def main(argv=None):
     from record import Busy, machine, write
 
     busy = Busy()
-    model, s, c, n, sweep = setup(a.scale, a.step)
+    model, s, c, n, sweep = setup(a.scale, a.step, a.scene)
     H, minv = local_operator(model, c, n)
     vel0, imp0, links0 = s.vel6.copy(), c.impulse.copy(), s.link_impulse.copy()
-    print(f"scale {a.scale}, seed 0, step index {a.step} (after {a.step} engine steps):"
+    print(f"{a.scene}, scale {a.scale}, seed 0, step index {a.step} (after {a.step} engine steps):"
           f" {model.n_bodies} bodies, {n} contacts, {model.n_links} links", flush=True)
     # our answer after 1 000 sweeps, and the problem in contact space with the wire's link
     # impulses held at their values then (in q), as the exported one
@@ -739,7 +746,7 @@ def main(argv=None):
         np.savez(a.export, Wdata=W.data, Windices=W.indices, Windptr=W.indptr,
                  shape=W.shape, q=q, mu=pb.mu, r=ours)
         print("wrote", a.export)
-    out = dict(machine=machine(), scale=a.scale, seed=0, step_index=a.step,
+    out = dict(machine=machine(), scene=a.scene, scale=a.scale, seed=0, step_index=a.step,
                bodies=model.n_bodies, contacts=n, sweeps=rows, error_field=field,
                ours_after_1000=ours_m, admm=admm_m, blocks=blocks, laws=laws, ipm=ipm,
                block_budget=a.block_budget if blocks else None, busy=busy.finish())

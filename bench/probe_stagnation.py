@@ -280,11 +280,9 @@ def probe_ipm(pb, H, minv, outers, law_sweeps_from):
         t = time.perf_counter()
         x, its = soc_ipm(A, D * (pb.q + shift))
         p = D * x
-        u = (pb.W @ p + pb.q).reshape(-1, 3)
-        new = np.zeros((n, 3))
-        new[:, 0] = pb.mu * np.hypot(u[:, 1], u[:, 2])
-        change = float(np.linalg.norm(new.ravel() - shift) / max(np.linalg.norm(new), 1e-300))
-        shift = new.ravel()
+        new = pb.shift(p)
+        change = float(np.linalg.norm(new - shift) / max(np.linalg.norm(new), 1e-300))
+        shift = new
         row = dict(outer=outer, ipm_iterations=int(its), seconds=time.perf_counter() - t,
                    shift_change=change, natural=pb.natural(p),
                    natural_scaled=pb.natural(p, True), cone_violation=pb.cone_violation(p),
@@ -377,7 +375,10 @@ def _law_sweeps():
     def law_sweeps(indptr, indices, data, q, mu, p, wd, sweeps, associated, quad):
         # Gauss-Seidel in contact space on u = W p + q, contacts in buffer order; the
         # local problem with W's diagonal block: the engine's Coulomb update (Signorini,
-        # then the disk), or the associated law's (the projection of -f on the cone in
+        # then the disk, as engine.solver.local.coulomb but dividing by W's diagonal where
+        # the engine multiplies by its inverse: the committed runs were made so, and the
+        # wandering Coulomb sweeps part from those runs after ~10 000 sweeps when the last
+        # bit changes), or the associated law's (the projection of -f on the cone in
         # the metric of the diagonal block: CCP, the friction cone's normality rule)
         n = mu.size
         for k in range(sweeps):
@@ -447,12 +448,26 @@ def _law_sweeps():
     return law_sweeps
 
 
-def probe_laws(model, pb, H, vfree, minv, p0, nsweeps):
-    """Part 5 (module doc): {law: [rows at a few sweeps]}."""
+def contact_sweeps(pb):
+    """``run(p, sweeps, associated)``: part 5's sweeps on ``pb`` (:class:`Problem`) from the
+    impulses ``p`` (flat, updated in place); returns each sweep's Quad residual."""
     law_sweeps = _law_sweeps()
     W = pb.W.tocsr()
     W.sort_indices()
     wd = W.diagonal().copy()
+
+    def run(p, sweeps, associated):
+        quad = np.zeros(sweeps)
+        law_sweeps(W.indptr, W.indices, W.data, pb.q, pb.mu, p, wd, sweeps, associated, quad)
+        return quad
+    run.wd = wd
+    return run
+
+
+def probe_laws(model, pb, H, vfree, minv, p0, nsweeps, run):
+    """Part 5 (module doc): {law: [rows at a few sweeps]}; ``run`` of
+    :func:`contact_sweeps`."""
+    wd = run.wd
     mob = model.body_dyn[:, 0] > 0
     marks = sorted({k for k in (1, 10, 100, 300, 1000, 3000, 10000, 20000) if k < nsweeps}
                    | {nsweeps})
@@ -461,8 +476,7 @@ def probe_laws(model, pb, H, vfree, minv, p0, nsweeps):
         p = p0.copy()
         snaps, done = {}, 0
         for k in marks:
-            quad = np.zeros(k - done)
-            law_sweeps(W.indptr, W.indices, W.data, pb.q, pb.mu, p, wd, k - done, assoc, quad)
+            quad = run(p, k - done, assoc)
             done = k
             snaps[k] = (p.copy(), float(quad[-1]))
         pref = snaps[nsweeps][0]
@@ -713,19 +727,14 @@ def main(argv=None):
               f", velocities {r['velocity_error']:.2f} from the last sweep's (max "
               f"{1e3 * r['max_speed_error']:.2f} mm/s)")
     print("error field:", field)
+    run = contact_sweeps(pb) if a.laws or a.ipm else None
     laws = None
     if a.laws:
-        laws = probe_laws(model, pb, H, vfree, minv, imp0[:n].ravel().copy(), a.laws)
+        laws = probe_laws(model, pb, H, vfree, minv, imp0[:n].ravel().copy(), a.laws, run)
     ipm = None
     if a.ipm:
-        law_sweeps = _law_sweeps()
-        Wr = W.tocsr()
-        Wr.sort_indices()
-        wd = Wr.diagonal().copy()
-
         def coulomb_from(p):
-            p, quad = p.copy(), np.zeros(1000)
-            law_sweeps(Wr.indptr, Wr.indices, Wr.data, q, pb.mu, p, wd, 1000, False, quad)
+            quad = run(p.copy(), 1000, False)
             return [(k, float(quad[k - 1])) for k in (1, 10, 100, 1000)]
         ipm = probe_ipm(pb, H, minv, a.ipm, coulomb_from)
     blocks = None

@@ -17,8 +17,11 @@ gravity in its mould, up to 12 000 steps of 0.05 ms) at tol 1e-4 instead of the 
 Its settling is compared with the report's three deposits at 2e-4.
 
 Both run with ``threads=2`` and nothing else on the machine (the JSON's ``busy`` says).
+``--contact-compliance ε`` runs either with compliant contacts
+(:attr:`engine.model.Options.contact_compliance`; default 0, rigid, as the report).
+
 Usage: python bench/bench_paper_scale.py [--test slope|mould] [--threads 2] [--seed 0]
-                                         [--steps N] [--tol T]
+                                         [--steps N] [--tol T] [--contact-compliance ε]
 Writes bench/results/paper-{slope,mould}-YYYYMMDD-HHMM.json.  30-60 min each on 2 idle
 cores.
 """
@@ -71,9 +74,14 @@ def main():
                     help="at most this many steps (default: the report's; fewer for a sample)")
     ap.add_argument("--tol", type=float, default=None,
                     help="NLGS tolerance (default: 1e-4, the target's)")
+    ap.add_argument("--contact-compliance", type=float, default=0.0,
+                    help="the contacts' normal compliance ε (Options.contact_compliance; "
+                         "default 0: rigid, as the report)")
     a = ap.parse_args()
     if a.threads < 1 or (a.steps is not None and a.steps < 1):
         ap.error(f"--threads and --steps must be >= 1, got {a.threads} and {a.steps}")
+    if not 0.0 <= a.contact_compliance <= 1.0:
+        ap.error(f"--contact-compliance must be in [0, 1], got {a.contact_compliance}")
 
     from engine import experiments
     from engine.io import read_history
@@ -86,6 +94,8 @@ def main():
     full_steps = params["steps"]
     params["tol"] = 1e-4 if a.tol is None else a.tol
     params["frames"] = 0                            # the scalars only (frames: ~1 MB each)
+    if a.contact_compliance:
+        params["contact_compliance"] = a.contact_compliance
     if a.steps is not None:
         params["steps"] = a.steps
     if a.test == "slope":
@@ -140,7 +150,7 @@ def main():
     out["busy"] = busy.finish()
     verdict = {True: "met", False: "NOT met", None: "not decided (a shorter run)"}
     print(f"paper-scale {a.test} (seed {a.seed}, {out['bodies']} bodies, threads={a.threads}, "
-          f"tol {params['tol']:g}): {out['steps']} steps in {wall / 60:.1f} min "
+          f"tol {params['tol']:g}, contact_compliance {a.contact_compliance:g}): {out['steps']} steps in {wall / 60:.1f} min "
           f"({1e3 * out['seconds_per_step']:.0f} ms/step, {out['mean_sweeps']:.0f} sweeps/step, "
           f"{out['steps_at_max_iter']} steps at max_iter = {100 * out['share_at_max_iter']:.1f} %,"
           f" at rest: {out['at_rest']}); target {target}: {verdict[out['target_met']]}")

@@ -128,7 +128,8 @@ def prepared_step(model, state):
     c = s.contacts_buf
     n, nl, o = c.count, model.n_links, model.options
     K.prepare(n, c.i, c.j, c.key, c.frame, c.gap, c.ri, c.rj, c.w, c.gterm, c.impulse,
-              model.body_dyn, s.vel6, s.warm_key, s.warm_impulse, o.dt, model.n_bodies)
+              model.body_dyn, s.vel6, s.warm_key, s.warm_impulse, o.dt, model.n_bodies,
+              o.contact_compliance)
     wl = np.empty((nl, LINK_COLUMNS))
     if nl:
         K.link_prepare(nl, model.link_i, model.link_j, model.link_ref_length,

@@ -753,7 +753,9 @@ def main(argv=None):
     print("ours after 1 000 sweeps:", ours_m)
     if a.export:
         np.savez(a.export, Wdata=W.data, Windices=W.indices, Windptr=W.indptr,
-                 shape=W.shape, q=q, mu=pb.mu, r=ours)
+                 shape=W.shape, q=q, mu=pb.mu, r=ours, gterm=c.gterm[:n].copy(),
+                 Hdata=H.tocsr().data, Hindices=H.tocsr().indices, Hindptr=H.tocsr().indptr,
+                 Hshape=H.shape, minv=minv, vfree=vfree, mobile=model.body_dyn[:, 0] > 0)
         print("wrote", a.export)
     out = dict(machine=machine(), scene=a.scene, scale=a.scale, seed=0, step_index=a.step,
                bodies=model.n_bodies, contacts=n, sweeps=rows, error_field=field,

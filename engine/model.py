@@ -117,6 +117,20 @@ class Options(Checked):
         the other; above :data:`engine.sanity.OVERLAP_WARN` = 5 % the run's summary
         warns).  Small wire beads against large grains reach about 1 (104 % was seen in
         a box test at scale 0.03 with beads of 57.5 µm).
+    contact_compliance : float
+        ε, the contacts' normal compliance as a fraction of their Delassus diagonal, in
+        [0, 1] (0, the default: rigid contacts, the paper's Signorini law).  With ε > 0
+        each contact (sphere–sphere and sphere–wall; not the wire's links, whose laws are
+        their own) is the unilateral spring of Eq. (14) with g_ref = 0: stiffness
+        k = 1/(ε h² W_nn), natural period 2π h √ε, a static overlap F/k = ε h² W_nn F
+        under a force F, and the gap term g/h of either sign, so that an overlap is the
+        spring's and does not grow step after step.  The tangential law is Coulomb's
+        as without it (a tangential compliance would let every sticking contact creep).
+        It vanishes as h²: the rigid law is the limit h → 0.  It gives the frictional
+        problem's hyperstatic directions a stiffness, which the sweeps need on dense
+        packings settling as a whole: on the mould deposit's stagnating step,
+        ε = 0.01 converges to round-off where the rigid law's sweeps wander
+        (docs/speed.md).  Over-relaxation (``relax`` > 1) is refused with it.
     natural_residual : bool
         Also compute each step's natural-map residual, Siconos's stopping measure
         (:mod:`engine.solver.residual`), into ``StepStats.natural_residual`` and the
@@ -140,6 +154,7 @@ class Options(Checked):
     chain_solve: bool = False
     max_overlap: float = Field(2.0, gt=0.0, le=1e3, allow_inf_nan=False)
     natural_residual: bool = False
+    contact_compliance: float = Field(0.0, ge=0.0, le=1.0, allow_inf_nan=False)
 
     _hot_alone = model_validator(mode="after")(lambda self: no_solver_conflict(self))
 
@@ -149,13 +164,15 @@ def no_solver_conflict(m):
     its NLGS options go together, else ValueError (:func:`solver_conflict`): the validator
     of :class:`Options` and of the tests' parameter models."""
     problem = solver_conflict(m.hot_sweeps, m.anderson, m.relax, m.threads,
-                              bool(getattr(m, "chain_solve", False)))
+                              bool(getattr(m, "chain_solve", False)),
+                              float(getattr(m, "contact_compliance", 0.0)))
     if problem:
         raise ValueError(problem)
     return m
 
 
-def solver_conflict(hot_sweeps, anderson, relax, threads, chain_solve=False) -> str | None:
+def solver_conflict(hot_sweeps, anderson, relax, threads, chain_solve=False,
+                    contact_compliance=0.0) -> str | None:
     """Why these NLGS options do not go together (None: they do): the hot re-sweeps and
     over-relaxation work on the unmixed sweep, over-relaxation on one thread only; the
     chain solve goes with all of them (``chain_solve`` is kept for the callers).  Shared by
@@ -167,6 +184,9 @@ def solver_conflict(hot_sweeps, anderson, relax, threads, chain_solve=False) -> 
         return (f"relax = {relax:g} > 1 (over-relaxation) works with the unmixed sweep on one "
                 f"thread only: set anderson=0 (got {anderson}) and threads=1 (got {threads}), "
                 f"or relax <= 1")
+    if relax > 1.0 and contact_compliance > 0.0:
+        return (f"relax = {relax:g} > 1 (over-relaxation) works with rigid contacts only: set "
+                f"contact_compliance=0 (got {contact_compliance:g}), or relax <= 1")
     return None
 
 

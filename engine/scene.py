@@ -528,7 +528,7 @@ class Scene:
                 relax: float = 1.0, alert: float | None = None, skin: float | None = None,
                 threads: int = 1, anderson: int = 0, hot_sweeps: int = 0,
                 max_overlap: float = 2.0, chain_solve: bool = False,
-                natural_residual: bool = False):
+                natural_residual: bool = False, contact_compliance: float = 0.0):
         """Freeze the scene into a :class:`Model` and its initial :class:`State`.
 
         Parameters
@@ -558,6 +558,9 @@ class Scene:
         natural_residual : bool
             Also report each step's natural-map residual, Siconos's stopping measure
             (:attr:`engine.model.Options.natural_residual`; default False).
+        contact_compliance : float in [0, 1]
+            ε, the contacts' normal compliance as a fraction of their Delassus diagonal
+            (:attr:`engine.model.Options.contact_compliance`; 0, the default: rigid).
 
         Raises
         ------
@@ -578,7 +581,8 @@ class Scene:
                        skin=0.5 * rmin if skin is None else skin, gravity=self.gravity,
                        threads=threads, anderson=anderson, hot_sweeps=hot_sweeps,
                        max_overlap=max_overlap, chain_solve=chain_solve,
-                       natural_residual=natural_residual)
+                       natural_residual=natural_residual,
+                       contact_compliance=contact_compliance)
 
         dof = np.where(kind == SPHERE, FREE, IMPOSED).astype(np.int8)
         line = np.zeros((nb, 3))

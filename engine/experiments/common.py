@@ -429,7 +429,7 @@ def run_identity(arguments: dict) -> str:
 
 #: Arguments added after checkpoints were first written, left out of a run's identity at
 #: these defaults, so that a checkpoint written before them still resumes.
-LATER_ARGUMENTS = {"chain_solve": False}
+LATER_ARGUMENTS = {"chain_solve": False, "contact_compliance": 0.0}
 
 
 def sample_identity(sample):

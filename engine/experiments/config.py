@@ -218,6 +218,11 @@ class Solver(Strict):
     acceleration: Acceleration = HotSweeps()
     chain_solve: bool = Field(False, description="each wire solved as one chain in every NLGS "
                                                  "sweep (any threads, hot_sweeps or anderson)")
+    contact_compliance: float = Field(0.0, ge=0, le=1,
+                                      description="contacts' normal compliance ε as a fraction "
+                                                  "of their Delassus diagonal (0: rigid; "
+                                                  "0.01 cures the mould deposit's stagnation, "
+                                                  "overlaps ε h² W_nn F)")
     max_nonconverged: float = Field(0.25, ge=0, le=1)
 
     @property
@@ -231,7 +236,7 @@ class Solver(Strict):
     @model_validator(mode="after")
     def _together(self):
         problem = solver_conflict(self.hot_sweeps, self.anderson, self.relax, self.threads,
-                                  self.chain_solve)
+                                  self.chain_solve, self.contact_compliance)
         if problem:
             raise ValueError(problem)
         return self
@@ -621,7 +626,8 @@ def flat_model(cls: type[TestConfig]) -> type[Strict]:
 
     def together(self):
         problem = solver_conflict(self.hot_sweeps, self.anderson, self.relax, self.threads,
-                                  getattr(self, "chain_solve", False))
+                                  getattr(self, "chain_solve", False),
+                                  getattr(self, "contact_compliance", 0.0))
         if problem:
             raise ValueError(problem)
         return self

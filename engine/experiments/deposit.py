@@ -82,7 +82,7 @@ def gravity_deposit(scale: float = 0.05, *, sample: str | Sample = "slope", wire
                     ke_fraction: float = 1e-4, dt: float = 1e-4, theta: float = 0.5,
                     tol: float = 1e-4, max_iter: int = 1000, relax: float = 1.0,
                     anderson: int = 0, threads: int = 1, hot_sweeps: int | None = None,
-                    chain_solve: bool = False,
+                    chain_solve: bool = False, contact_compliance: float = 0.0,
                     mu: float = 0.5, mu_wall: float = 0.5, mu_wire: float = 0.3,
                     record_every: int = 20, frames: int = 200,
                     max_nonconverged: float = 0.25, history: str = "out/gravity_deposit.h5",
@@ -203,7 +203,8 @@ def _in_mould(smp, cfg):
     model, state = sc.compile(dt=cfg.dt, theta=cfg.theta, tol=cfg.tol, max_iter=cfg.max_iter,
                               relax=cfg.relax, anderson=cfg.anderson, threads=cfg.threads,
                               hot_sweeps=cfg.hot_sweeps,
-                              chain_solve=cfg.chain_solve)
+                              chain_solve=cfg.chain_solve,
+                              contact_compliance=cfg.contact_compliance)
     return model, state, sand, ids
 
 
@@ -216,7 +217,8 @@ def _params(cfg, smp) -> dict:
                 ke_fraction=cfg.ke_fraction, dt=cfg.dt, theta=cfg.theta, tol=cfg.tol,
                 max_iter=cfg.max_iter, relax=cfg.relax, anderson=cfg.anderson,
                 threads=cfg.threads, hot_sweeps=cfg.hot_sweeps,
-                chain_solve=cfg.chain_solve, mu=cfg.mu, mu_wall=cfg.mu_wall,
+                chain_solve=cfg.chain_solve, contact_compliance=cfg.contact_compliance,
+                mu=cfg.mu, mu_wall=cfg.mu_wall,
                 mu_wire=cfg.mu_wire, seed=cfg.seed, n_sand=int(smp.sand_radii.size),
                 n_beads=smp.n_beads, friction_angle_deg=math.degrees(math.atan(cfg.mu)),
                 config=cfg.config.model_dump(mode="json"))

@@ -90,7 +90,8 @@ def slope_deposit(scale: float = 0.02, *, sample=None, wire: bool = True,
                   rubber_radius: float = 0.3e-3, floor_extent: float = 5.0, dt: float = 5e-5,
                   theta: float = 0.5, tol: float = 1e-4, max_iter: int = 1000,
                   relax: float = 1.0, anderson: int = 0, threads: int = 1,
-                  hot_sweeps: int | None = None, chain_solve: bool = False, mu: float = 0.5,
+                  hot_sweeps: int | None = None, chain_solve: bool = False,
+                  contact_compliance: float = 0.0, mu: float = 0.5,
                   mu_floor: float = 0.8, mu_wire: float = 0.3, record_every: int = 20,
                   frames: int = 200, max_nonconverged: float = 0.25,
                   history: str = "out/slope_deposit.h5", seed: int = 0,
@@ -189,7 +190,8 @@ def _heap(st, cfg) -> SimpleNamespace:
     model, state = sc.compile(dt=cfg.dt, theta=cfg.theta, tol=cfg.tol, max_iter=cfg.max_iter,
                               relax=cfg.relax, anderson=cfg.anderson, threads=cfg.threads,
                               hot_sweeps=cfg.hot_sweeps,
-                              chain_solve=cfg.chain_solve)
+                              chain_solve=cfg.chain_solve,
+                              contact_compliance=cfg.contact_compliance)
     return SimpleNamespace(model=st.carry_over(model, state), state=state,
                            sand=np.asarray(sand), ids=ids, rubber=rubber, R=R, lift=lift)
 
@@ -256,7 +258,8 @@ def _slope_result(heap, done, cfg, st, chains0) -> SlopeResult:
                     floor_extent=cfg.floor_extent, dt=cfg.dt, theta=cfg.theta, tol=cfg.tol,
                     max_iter=cfg.max_iter, relax=cfg.relax, anderson=cfg.anderson,
                     threads=cfg.threads, hot_sweeps=cfg.hot_sweeps,
-                    chain_solve=cfg.chain_solve, mu=cfg.mu,
+                    chain_solve=cfg.chain_solve, contact_compliance=cfg.contact_compliance,
+                    mu=cfg.mu,
                     mu_floor=cfg.mu_floor, mu_wire=cfg.mu_wire, seed=cfg.seed,
                     n_sand=int(st.sand_radii.size), n_beads=st.n_beads,
                     friction_angle_deg=math.degrees(math.atan(cfg.mu)),

@@ -31,8 +31,10 @@ from .local import coulomb, rod, wire
 #: contact buffers of :mod:`engine.contact`, in the sweep's body numbering, or the
 #: parallel sweep's copies gathered by group):
 #: ``i, j`` (n,) int32 bodies; ``frame`` (n, 9) local frames (n, t, s) [-];
-#: ``w`` (n, 4) Delassus diagonals (W_nn, W_tt, 1/W_nn, 1/W_tt) [1/kg, kg];
-#: ``gterm`` (n,) gap terms max(g_m, 0)/h [m/s]; ``mu`` (n,) friction [-];
+#: ``w`` (n, 4) Delassus diagonals (W_nn, W_tt, 1/(W_nn + c), 1/W_tt) [1/kg, kg], c the
+#: normal compliance (``Options.contact_compliance`` × W_nn, 0 for rigid contacts);
+#: ``gterm`` (n,) gap terms max(g_m, 0)/h, g_m/h for compliant contacts [m/s];
+#: ``mu`` (n,) friction [-];
 #: ``ri, rj`` (n,) lever arms [m]; ``impulse`` (n, 3) local impulses (p_n, p_t, p_s) [N·s],
 #: updated in place.
 Contacts = namedtuple("Contacts", "i j frame w gterm mu ri rj impulse")
@@ -105,12 +107,18 @@ def _line_factor(body_dyn, b, ex, ey, ez):
 
 @njit(cache=True)
 def prepare(n, c_i, c_j, key, frame, gap, ri, rj, w, gterm, impulse, body_dyn, vel6,
-            warm_key, warm_impulse, h, nb):
+            warm_key, warm_impulse, h, nb, eps=0.0):
     """Delassus diagonals, gap terms and warm start for the ``n`` contacts of the step.
 
     W_αα = H_αᵀ M⁻¹ H_α for spheres (lever arm -r n): W_nn = 1/m_i + 1/m_j,
     W_tt = W_ss = 1/m_i + 1/m_j + r_i²/I_i + r_j²/I_j.  The gap term is max(g_m, 0)/h
-    (see :func:`engine.solver.local.coulomb`).  The impulse of a contact that
+    (see :func:`engine.solver.local.coulomb`).
+
+    ``eps`` (``Options.contact_compliance``, >= 0) gives each contact the normal compliance
+    c = eps W_nn: the local normal solve divides by W_nn + c (``w[a, 2]`` = 1/(W_nn + c)),
+    and with eps > 0 the gap term is g_m/h whatever its sign, so that an overlap is the
+    spring's (the unilateral elastic law of Eq. 14 with g_ref = 0, stiffness
+    1/(c h²)); with eps = 0 both are as above, bit for bit.  The impulse of a contact that
     existed in the previous step (same key) is restarted from its previous value
     (global frame, projected on the new frame) and applied to the body velocities.
 
@@ -137,10 +145,10 @@ def prepare(n, c_i, c_j, key, frame, gap, ri, rj, w, gterm, impulse, body_dyn, v
         wt = max(wt, ws) + rot
         w[a, 0] = wn
         w[a, 1] = wt
-        w[a, 2] = 1.0 / wn if wn > 0.0 else 0.0
+        w[a, 2] = 1.0 / (wn + eps * wn) if wn > 0.0 else 0.0
         w[a, 3] = 1.0 / wt if wt > 0.0 else 0.0
         g = gap[a]
-        gterm[a] = g / h if g > 0.0 else 0.0
+        gterm[a] = g / h if (g > 0.0 or eps > 0.0) else 0.0
         impulse[a, 0] = 0.0
         impulse[a, 1] = 0.0
         impulse[a, 2] = 0.0

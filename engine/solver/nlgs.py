@@ -89,7 +89,8 @@ def _solve_on(model, state, ci, cj, body_dyn, vel6, pos, link_i, link_j, threads
     n = c.count
     nl = model.n_links
     prepare(n, ci, cj, c.key, c.frame, c.gap, c.ri, c.rj, c.w, c.gterm, c.impulse,
-            body_dyn, vel6, state.warm_key, state.warm_impulse, o.dt, model.n_bodies)
+            body_dyn, vel6, state.warm_key, state.warm_impulse, o.dt, model.n_bodies,
+            o.contact_compliance)
     wl = _EMPTY_WL
     if nl:
         wl = np.empty((nl, LINK_COLUMNS))

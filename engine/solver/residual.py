@@ -14,7 +14,9 @@ sqrt(Σ_α ‖e_α‖²) / ‖q‖, q the local free velocity (the velocities th
 without any impulse), which is Siconos's normalisation (the error divided by the norm of
 the problem's q).  In SI units (r in N s, u in m/s) the velocity terms dominate, as they do
 in Siconos on the same scene.  Here u_n and q_n include the gap term max(g_m, 0)/h of
-:func:`engine.solver.local.coulomb` (our Signorini condition is on u_n + max(g_m, 0)/h).
+:func:`engine.solver.local.coulomb` (our Signorini condition is on u_n + max(g_m, 0)/h),
+and with compliant contacts (``Options.contact_compliance`` ε > 0) u_n holds g_m/h and
+ε W_nn r_n, as the sweeps' law does.
 Contacts between two immobile bodies are left out; so are wire links (Siconos's deposit has
 none).
 
@@ -44,10 +46,11 @@ def _local(a, c_i, c_j, frame, ri, rj, vel6):
 
 
 @njit(cache=True)
-def natural_map(n, c_i, c_j, frame, ri, rj, gterm, w, mu, impulse, vel6, free6):
+def natural_map(n, c_i, c_j, frame, ri, rj, gterm, w, mu, impulse, vel6, free6, eps=0.0):
     """(Σ_α ‖e_α‖², Σ_α ‖q_α‖²) over the ``n`` contacts (see the module docstring):
     ``vel6`` the solved body velocities, ``free6`` the free ones, ``impulse`` (n, 3) local
-    (n, t, s) [N s]."""
+    (n, t, s) [N s]; ``eps`` the contacts' normal compliance (``Options.contact_compliance``:
+    u_n holds its term ε W_nn p_n, as the sweeps' local law)."""
     err = 0.0
     qq = 0.0
     for a in range(n):
@@ -55,7 +58,7 @@ def natural_map(n, c_i, c_j, frame, ri, rj, gterm, w, mu, impulse, vel6, free6):
             continue
         g = gterm[a]
         un, ut, us = _local(a, c_i, c_j, frame, ri, rj, vel6)
-        un += g
+        un += g + eps * w[a, 0] * impulse[a, 0]
         fn, ft, fs = _local(a, c_i, c_j, frame, ri, rj, free6)
         fn += g
         qq += fn * fn + ft * ft + fs * fs
@@ -86,7 +89,7 @@ def natural_residual(model, state, free6) -> float:
     (nb, 6); 0 when there is nothing to solve (no contact, or q = 0)."""
     c = state.contacts_buf
     err, qq = natural_map(c.count, c.i, c.j, c.frame, c.ri, c.rj, c.gterm, c.w, c.mu,
-                          c.impulse, state.vel6, free6)
+                          c.impulse, state.vel6, free6, model.options.contact_compliance)
     if qq <= 0.0:
         return 0.0 if err == 0.0 else math.inf
     return math.sqrt(err) / math.sqrt(qq)

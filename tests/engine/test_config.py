@@ -197,3 +197,30 @@ def test_chain_solve_reaches_the_solver_and_conflicts_are_refused(test, monkeypa
         getattr(experiments, test)(scale=0.05, chain_solve=True, progress=False,
                                    history=str(tmp_path / "h.h5"))
     assert seen and seen[-1] is True
+
+
+@pytest.mark.parametrize("test", sorted(CONFIGS))
+def test_contact_compliance_reaches_the_solver_and_refuses_over_relaxation(test, monkeypatch,
+                                                                           tmp_path):
+    """``contact_compliance`` is a keyword of every test and of the run files' flat
+    parameters: it ends in the test's own Scene.compile; with ``relax > 1`` it is refused
+    in one line before anything is built."""
+    from engine import Scene
+    from engine.experiments.config import flat_model
+
+    with pytest.raises((InputError, ValueError)) as e:
+        getattr(experiments, test)(contact_compliance=0.01, relax=1.5, progress=False,
+                                   history=str(tmp_path / "h.h5"))
+    assert "contact_compliance" in str(e.value) and "\n" not in str(e.value)
+    assert flat_model(CONFIGS[test])(contact_compliance=0.01).contact_compliance == 0.01
+    seen = []
+
+    def compile_(self, *a, **kw):
+        seen.append(kw.get("contact_compliance"))
+        raise RuntimeError("stop after compile")
+
+    monkeypatch.setattr(Scene, "compile", compile_)
+    with pytest.raises(RuntimeError, match="stop after compile"):
+        getattr(experiments, test)(scale=0.05, contact_compliance=0.01, progress=False,
+                                   history=str(tmp_path / "h.h5"))
+    assert seen and seen[-1] == 0.01

@@ -35,11 +35,13 @@ P = common.PARAMS
 
 
 def build(state_file: str, dt: float | None = None, anderson: int | None = None,
-          hot_sweeps: int = 0, tol: float | None = None, relax: float = 1.0):
+          hot_sweeps: int = 0, tol: float | None = None, relax: float = 1.0,
+          contact_compliance: float = 0.0):
     """Our Scene from a state file: spheres with their velocities and spins, open box.
     ``dt``, ``tol`` and ``anderson`` override the common parameters' time step and NLGS
     tolerance and the engine's default acceleration depth; ``hot_sweeps`` and ``relax``:
-    :attr:`engine.model.Options.hot_sweeps` and ``relax`` (> 1: over-relaxation)."""
+    :attr:`engine.model.Options.hot_sweeps` and ``relax`` (> 1: over-relaxation);
+    ``contact_compliance``: :attr:`engine.model.Options.contact_compliance` (0: rigid)."""
     st = common.load_state(state_file)
     s = Scene(gravity=(0.0, 0.0, -P["gravity"]))
     s.add_spheres(st["position"], st["radius"], density=P["density"], group="sand",
@@ -53,7 +55,8 @@ def build(state_file: str, dt: float | None = None, anderson: int | None = None,
         extra["hot_sweeps"] = hot_sweeps
     model, state = s.compile(dt=P["dt"] if dt is None else dt, theta=P["theta"],
                              tol=P["tol"] if tol is None else tol,
-                             max_iter=P["max_iter"], relax=relax, **extra)
+                             max_iter=P["max_iter"], relax=relax,
+                             contact_compliance=contact_compliance, **extra)
     return st, model, state, time.perf_counter() - t0
 
 
@@ -153,7 +156,7 @@ def cmd_steps(a):
 def cmd_rest(a):
     warm_s = warm()
     st, model, state, compile_s = build(a.state, a.dt, a.anderson, a.hot_sweeps, a.tol,
-                                        a.relax)
+                                        a.relax, a.contact_compliance)
     sph = model.sphere_ids
     rad = model.body_radius[sph]
     m, inertia = common.masses(rad, P["density"])
@@ -189,7 +192,7 @@ def cmd_rest(a):
         walls_vertical_force_over_weight=-walls_z / weight,
         mode="rest", state=Path(a.state).name, rest_ratio=a.rest_ratio, at_rest=at_rest,
         dt_s=model.options.dt, tol=model.options.tol, anderson=model.options.anderson,
-        relax=model.options.relax,
+        relax=model.options.relax, contact_compliance=model.options.contact_compliance,
         hot_sweeps=model.options.hot_sweeps,
         steps_done=n, simulated_time_s=float(state.time), wall_s=wall, cap_s=a.cap_s,
         cap_hit=not at_rest, kinetic_energy_peak_J=peak,
@@ -229,6 +232,8 @@ def main():
                    help="re-sweeps of the hot contacts (needs --anderson 0)")
     p.add_argument("--relax", type=float, default=1.0,
                    help="NLGS relaxation (> 1: over-relaxation, needs --anderson 0)")
+    p.add_argument("--contact-compliance", type=float, default=0.0,
+                   help="the contacts' normal compliance ε (0: rigid)")
     a = ap.parse_args()
     numba.set_num_threads(1)
     {"init": cmd_init, "steps": cmd_steps, "rest": cmd_rest}[a.cmd](a)

@@ -188,6 +188,7 @@ def main():
     o_rest_big = _load(work, "ours_rest_dt_large.json")
     o_rest_loose = _load(work, "ours_rest_loose_tol.json")
     o_rest_sor = _load(work, "ours_rest_sor.json")
+    o_rest_soft = _load(work, "ours_rest_compliant.json")
     yade = _load(work, "yade_rest.json")
     dense_state = _load(work, "dense_state.json")
     shim = _load(work, "shim.json")
@@ -231,8 +232,10 @@ def main():
         yd["agreement_at_end"] = _agree(o_rest["final"], yade["final"])
     # the same deposit at NSCD's larger time step (PEERS_REST_DT_LARGE), at h = 5e-5 s
     # with a looser NLGS tolerance (PEERS_REST_TOL_LOOSE), and at h = 5e-5 s, tol 1e-4 with
-    # over-relaxation (PEERS_REST_RELAX); each also against our first run
-    for tag, o in (("large_dt", o_rest_big), ("loose_tol", o_rest_loose), ("sor", o_rest_sor)):
+    # over-relaxation (PEERS_REST_RELAX), and with compliant contacts
+    # (PEERS_REST_COMPLIANCE); each also against our first run
+    for tag, o in (("large_dt", o_rest_big), ("loose_tol", o_rest_loose), ("sor", o_rest_sor),
+                   ("compliant", o_rest_soft)):
         if not (o and yade):
             continue
         yd[f"ours_{tag}"] = _compact(o)
@@ -269,6 +272,8 @@ def main():
         yade_wall_to_rest_ratio_loose_tol=yd.get("ratio_wall_to_rest_loose_tol"),
         yade_wall_to_rest_ratio_sor=yd.get("ratio_wall_to_rest_sor"),
         ours_sor_relax=(o_rest_sor or {}).get("relax"),
+        yade_wall_to_rest_ratio_compliant=yd.get("ratio_wall_to_rest_compliant"),
+        ours_contact_compliance=(o_rest_soft or {}).get("contact_compliance"),
         ours_large_dt_s=(o_rest_big or {}).get("dt_s"),
         ours_loose_tol=(o_rest_loose or {}).get("tol"),
         ours_rest_anderson=(o_rest or {}).get("anderson"),
@@ -344,13 +349,15 @@ def print_table(out):
         print(f"ratio Yade/ours wall time to rest (h = {y['ours'].get('dt_s', 5e-5):g} s): "
               f"{'>= ' if y['ratio_is_lower_bound'] else ''}"
               f"{y['ratio_wall_to_rest']:.1f} (target >= {TARGET:g})")
-    for tag in ("large_dt", "loose_tol", "sor"):
+    for tag in ("large_dt", "loose_tol", "sor", "compliant"):
         if not y.get(f"ours_{tag}"):
             continue
         o = y[f"ours_{tag}"]
         g = y[f"agreement_at_end_{tag}"]
         what = f"h = {o['dt_s']:g} s, tol {o['tol']:g}" + (
-            f", relax {o['relax']:g}" if o.get("relax", 1.0) != 1.0 else "")
+            f", relax {o['relax']:g}" if o.get("relax", 1.0) != 1.0 else "") + (
+            f", contact_compliance {o['contact_compliance']:g}"
+            if o.get("contact_compliance") else "")
         print(f"ours at {what}: {'at rest' if o['at_rest'] else 'NOT at rest'} after "
               f"{o['steps_done']} steps in {o['wall_s']:.1f} s; mean height "
               f"{g['mean_height_ours_m'] * 1e3:.4f} mm (Yade rel {g['mean_height_rel_diff']:+.2e}); "

@@ -17,6 +17,8 @@
 #                            other runs use the common 1e-4); empty: skipped
 #   PEERS_REST_RELAX=1.4     our fourth run to rest, at h = 5e-5 s and tol 1e-4 with this
 #                            NLGS over-relaxation (docs/speed.md); empty: skipped
+#   PEERS_REST_COMPLIANCE=0.01  our fifth run to rest, at h = 5e-5 s and tol 1e-4 with
+#                            compliant contacts (Options.contact_compliance); empty: skipped
 #   PEERS_REST_ANDERSON=0, PEERS_REST_HOT=2   NLGS of our runs to rest: Anderson depth and
 #                            re-sweeps of the hot contacts (docs/speed.md: the fastest
 #                            measured for this deposit; 4 and 0 were the default until
@@ -164,6 +166,12 @@ if ! skip yade; then
     run ours_rest_sor "$VPY" $HERE/ours.py rest --state "$WORK/init_state.json" \
         --cap-s "$REST_CAP" --relax "$RELAX" --anderson "$AND" --hot-sweeps "$HOT" \
         --out "$WORK/ours_rest_sor.json"
+  fi
+  SOFT=${PEERS_REST_COMPLIANCE-0.01}
+  if [[ -n "$SOFT" ]]; then
+    run ours_rest_compliant "$VPY" $HERE/ours.py rest --state "$WORK/init_state.json" \
+        --cap-s "$REST_CAP" --contact-compliance "$SOFT" --anderson "$AND" --hot-sweeps "$HOT" \
+        --out "$WORK/ours_rest_compliant.json"
   fi
   run yade_rest env PEERS_STATE="$WORK/init_state.json" PEERS_OUT="$WORK/yade_rest.json" \
       PEERS_CAP_S="$YADE_CAP" yade -n -j1 -x $HERE/yade_deposit.py

@@ -178,25 +178,13 @@ def test_chain_solve_reaches_the_solver_and_conflicts_are_refused(test, monkeypa
     test's own Scene.compile), with Anderson mixing or two threads as well (since
     2026-12-05), and a conflict of the other options is still refused in one line before
     anything is built."""
-    from engine import Scene
-
     with pytest.raises((InputError, ValueError)) as e:
         getattr(experiments, test)(chain_solve=True, anderson=4, relax=1.5, progress=False,
                                    history=str(tmp_path / "h.h5"))
     assert "relax" in str(e.value) and "\n" not in str(e.value)
     for kw in (dict(anderson=4), dict(threads=2)):
         assert CONFIGS[test].from_kwargs(chain_solve=True, **kw).solver.chain_solve
-    seen = []
-
-    def compile_(self, *a, **kw):
-        seen.append(kw.get("chain_solve"))
-        raise RuntimeError("stop after compile")
-
-    monkeypatch.setattr(Scene, "compile", compile_)
-    with pytest.raises(RuntimeError, match="stop after compile"):
-        getattr(experiments, test)(scale=0.05, chain_solve=True, progress=False,
-                                   history=str(tmp_path / "h.h5"))
-    assert seen and seen[-1] is True
+    assert _compiled_with(test, monkeypatch, tmp_path, "chain_solve", True) is True
 
 
 @pytest.mark.parametrize("test", sorted(CONFIGS))
@@ -205,7 +193,6 @@ def test_contact_compliance_reaches_the_solver_and_refuses_over_relaxation(test,
     """``contact_compliance`` is a keyword of every test and of the run files' flat
     parameters: it ends in the test's own Scene.compile; with ``relax > 1`` it is refused
     in one line before anything is built."""
-    from engine import Scene
     from engine.experiments.config import flat_model
 
     with pytest.raises((InputError, ValueError)) as e:
@@ -213,14 +200,23 @@ def test_contact_compliance_reaches_the_solver_and_refuses_over_relaxation(test,
                                    history=str(tmp_path / "h.h5"))
     assert "contact_compliance" in str(e.value) and "\n" not in str(e.value)
     assert flat_model(CONFIGS[test])(contact_compliance=0.01).contact_compliance == 0.01
+    assert _compiled_with(test, monkeypatch, tmp_path, "contact_compliance", 0.01) == 0.01
+
+
+def _compiled_with(test, monkeypatch, tmp_path, key, value):
+    """The ``key`` keyword that ``test`` (scale 0.05, ``key=value``) passes to its own
+    Scene.compile, which is stopped there."""
+    from engine import Scene
+
     seen = []
 
     def compile_(self, *a, **kw):
-        seen.append(kw.get("contact_compliance"))
+        seen.append(kw.get(key, "missing"))
         raise RuntimeError("stop after compile")
 
     monkeypatch.setattr(Scene, "compile", compile_)
     with pytest.raises(RuntimeError, match="stop after compile"):
-        getattr(experiments, test)(scale=0.05, contact_compliance=0.01, progress=False,
-                                   history=str(tmp_path / "h.h5"))
-    assert seen and seen[-1] == 0.01
+        getattr(experiments, test)(scale=0.05, progress=False, history=str(tmp_path / "h.h5"),
+                                   **{key: value})
+    assert seen
+    return seen[-1]

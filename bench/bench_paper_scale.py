@@ -142,7 +142,10 @@ def main():
                    target_met=(False if wall > TARGET_SECONDS
                                else bool(wall <= TARGET_SECONDS) if full else None))
     else:
+        sc = res.scalars()
         out.update(settlement=getattr(res, "settlement", None),
+                   outcomes={k: sc.get(k) for k in ("tortuosity_before", "tortuosity_after",
+                                                    "slack_share", "wall_force", "weight")},
                    # more steps at max_iter than 2 % of the most the run may take: certain
                    target_met=(False if out["steps_at_max_iter"] > TARGET_SHARE * params["steps"]
                                else bool(out["share_at_max_iter"] <= TARGET_SHARE) if full

@@ -135,11 +135,14 @@ def reaction_gain(vel6, free, mass, inertia, sphere_ids, dof):
 
 def energy_sources(model, state) -> str | None:
     """Why the reactions of ``model`` may add kinetic energy from ``state`` on (drives,
-    elastic links, rigid links stretched past their reference length by a prestrain), in
-    words, or None: then :func:`reaction_gain` must be <= 0."""
+    elastic links, rigid links stretched past their reference length by a prestrain,
+    compliant contacts, whose springs give back what they stored), in words, or None: then
+    :func:`reaction_gain` must be <= 0."""
     why = []
     if model.drives:
         why.append("driven bodies")
+    if model.options.contact_compliance > 0.0:
+        why.append("compliant contacts")
     if model.n_links:
         if np.isfinite(model.link_stiffness).any():
             why.append("elastic links")

@@ -110,6 +110,22 @@ def test_the_mould_deposit_converges_with_compliance_where_the_rigid_law_stagnat
     assert soft.convergence["non_converged"] == 0
 
 
+def test_a_released_overlap_is_a_known_energy_source_not_a_warning():
+    import warnings
+
+    from engine import run
+    from engine.sanity import energy_sources
+
+    model, state = _overlapping_pair(0.01, 2e-6)
+    assert energy_sources(model, state) == "compliant contacts"
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")            # no PhysicsWarning for the spring's push
+        summary = run(model, state, 3, progress=False)
+    assert state.vel6[1, 0] > 0.0 and "energy" not in str(summary).lower()
+    rigid, _ = _overlapping_pair(0.0, 2e-6)
+    assert energy_sources(rigid, state) is None
+
+
 @pytest.mark.parametrize("bad", [-0.01, 1.5, float("nan")])
 def test_bad_compliance_is_refused_in_one_line(bad):
     with pytest.raises(ValueError) as e:

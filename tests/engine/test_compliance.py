@@ -5,7 +5,8 @@ stiffness 1/(ε h² W_nn), so a body at rest carries the static overlap ε h² W
 sphere on a floor: ε g h²; a column: linear in the load), for either θ, and comes to rest
 in a few steps; an overlap is the spring's (pushed out) where the rigid law only keeps it
 from growing; the natural-map residual holds the compliance term (0 at rest); the mould
-deposit that stagnates with the rigid law converges at every step with ε = 0.01; bad values and over-relaxation are refused in one line.
+deposit that stagnates with the rigid law converges at every step with ε = 0.01; a released
+overlap is a known energy source; bad values and over-relaxation are refused in one line.
 """
 from __future__ import annotations
 

@@ -63,6 +63,7 @@ bench: $(STAMP) sysdeps
 	$(PY) bench/bench_wire.py
 	$(PY) bench/bench_chains.py
 	$(PY) bench/bench_residual.py
+	$(PY) bench/bench_compliance.py
 	$(PY) bench/bench_freeze.py
 	$(PY) bench/bench_scaling.py
 	$(PY) bench/bench_parallel.py
@@ -75,6 +76,7 @@ bench: $(STAMP) sysdeps
 	$(PY) bench/bench_stop.py
 	$(PY) bench/bench_paper_scale.py --test slope
 	$(PY) bench/bench_paper_scale.py --test mould
+	$(PY) bench/bench_paper_scale.py --test mould --contact-compliance 0.01
 
 ## make bench-peers: the same scenes in Siconos and Yade (installed with apt if missing)
 bench-peers: $(STAMP)

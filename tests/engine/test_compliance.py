@@ -141,3 +141,14 @@ def test_over_relaxation_is_refused_with_compliance():
         s.compile(dt=1e-4, relax=1.4, contact_compliance=0.01)
     msg = str(e.value)
     assert "contact_compliance" in msg and "relax" in msg and "\n" not in msg
+
+
+def test_a_checkpoint_written_before_the_keyword_still_resumes():
+    # a run's identity (what its checkpoint is tied to) leaves out the keyword at its
+    # default, so a rigid run checkpointed before it existed resumes; a compliant run is
+    # another run
+    from engine.experiments.common import run_identity
+
+    old = dict(test="gravity_deposit", scale=0.1, tol=1e-4, chain_solve=False)
+    assert run_identity(dict(old, contact_compliance=0.0)) == run_identity(old)
+    assert run_identity(dict(old, contact_compliance=0.01)) != run_identity(old)

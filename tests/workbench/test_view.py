@@ -269,8 +269,19 @@ def test_the_mouse_turns_the_view_and_play_runs_the_frames(page):
     page.locator("#play").click()
     wait_until(lambda: frame_of(page)[0] >= 2, what="play to move the frames")
     page.locator("#play").click()                     # pause
-    time.sleep(1.0)
+    # a frame change the server made before the pause reached it may still land after it
+    # (under load the page runs a second or more behind: 4 -> 5 was seen 1 s after the
+    # click); so wait for the frames to stop, within 15 s, then check they stay stopped.
+    # Still playing, at 5 frames/s, they never stop for 1.5 s
+    deadline = time.monotonic() + 15.0
     k = frame_of(page)[0]
+    while True:
+        time.sleep(1.5)
+        now = frame_of(page)[0]
+        if now == k:
+            break
+        assert time.monotonic() < deadline, "pause did not stop the frames"
+        k = now
     time.sleep(1.5)
     assert frame_of(page)[0] == k, "pause did not stop the frames"
     slider_key(page, "frame-slider", "End")          # back to the frame of `before`

@@ -161,6 +161,15 @@ def solver_choice(anderson, hot_sweeps) -> tuple[int, int]:
     return a, (HOT_SWEEPS if a == 0 else 0) if hot_sweeps is None else int(hot_sweeps)
 
 
+def compile_options(cfg) -> dict:
+    """The keywords of :meth:`engine.Scene.compile` of a test, from its flat config ``cfg``
+    (time step, θ and the NLGS options): the one place the tests pass them on."""
+    return dict(dt=cfg.dt, theta=cfg.theta, tol=cfg.tol, max_iter=cfg.max_iter,
+                relax=cfg.relax, anderson=cfg.anderson, threads=cfg.threads,
+                hot_sweeps=cfg.hot_sweeps, chain_solve=cfg.chain_solve,
+                contact_compliance=cfg.contact_compliance)
+
+
 def inertial_rate(pressure, d_mean, density, inertial_number):
     """Strain rate [1/s] of inertial number I = ε̇ d √(ρ/p) (GDR MiDi 2004)."""
     return inertial_number * math.sqrt(pressure / density) / d_mean

@@ -16,9 +16,9 @@ from ..prep.samples import Sample
 from ..prep.relax import kinetic_energy
 from ..scene import Scene
 from .config import DepositConfig
-from .common import (RestCheckpoint, RestResult, check_bool, check_scale, deposit_laws, finish,
-                     rest_run, rest_summary, run_identity, run_meta, sample_identity,
-                     solver_choice, wire_before_after, wire_law_or_default)
+from .common import (RestCheckpoint, RestResult, check_bool, check_scale, compile_options,
+                     deposit_laws, finish, rest_run, rest_summary, run_identity, run_meta,
+                     sample_identity, solver_choice, wire_before_after, wire_law_or_default)
 
 __all__ = ["gravity_deposit", "DepositResult", "SAMPLES"]
 
@@ -200,11 +200,7 @@ def _in_mould(smp, cfg):
     _mould(sc, smp.container, 1.1 * max(hi[2] - lo[2], smp.height))
     deposit_laws(sc, "wall", mu=cfg.mu, mu_support=cfg.mu_wall, mu_wire=cfg.mu_wire,
                  wire=cfg.wire)
-    model, state = sc.compile(dt=cfg.dt, theta=cfg.theta, tol=cfg.tol, max_iter=cfg.max_iter,
-                              relax=cfg.relax, anderson=cfg.anderson, threads=cfg.threads,
-                              hot_sweeps=cfg.hot_sweeps,
-                              chain_solve=cfg.chain_solve,
-                              contact_compliance=cfg.contact_compliance)
+    model, state = sc.compile(**compile_options(cfg))
     return model, state, sand, ids
 
 

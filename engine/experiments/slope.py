@@ -16,9 +16,9 @@ from ..prep.relax import kinetic_energy
 from ..scene import Scene
 from .config import SlopeConfig
 from .start import start_of
-from .common import (RestCheckpoint, RestResult, check_bool, check_scale, deposit_laws,
-                     finish, rest_run, rest_summary, run_identity, run_meta, sample_identity,
-                     solver_choice, wire_before_after, wire_law_or_default)
+from .common import (RestCheckpoint, RestResult, check_bool, check_scale, compile_options,
+                     deposit_laws, finish, rest_run, rest_summary, run_identity, run_meta,
+                     sample_identity, solver_choice, wire_before_after, wire_law_or_default)
 
 __all__ = ["slope_deposit", "SlopeResult", "hex_floor"]
 
@@ -187,11 +187,7 @@ def _heap(st, cfg) -> SimpleNamespace:
     sc.interact("rubber", "rubber", None)
     deposit_laws(sc, "rubber", mu=cfg.mu, mu_support=cfg.mu_floor, mu_wire=cfg.mu_wire,
                  wire=st.has_wire)
-    model, state = sc.compile(dt=cfg.dt, theta=cfg.theta, tol=cfg.tol, max_iter=cfg.max_iter,
-                              relax=cfg.relax, anderson=cfg.anderson, threads=cfg.threads,
-                              hot_sweeps=cfg.hot_sweeps,
-                              chain_solve=cfg.chain_solve,
-                              contact_compliance=cfg.contact_compliance)
+    model, state = sc.compile(**compile_options(cfg))
     return SimpleNamespace(model=st.carry_over(model, state), state=state,
                            sand=np.asarray(sand), ids=ids, rubber=rubber, R=R, lift=lift)
 

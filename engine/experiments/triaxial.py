@@ -59,8 +59,8 @@ from ..scene import Scene
 from .config import CONFIGS
 from .start import check_preparation, start_of
 from .common import (ConfinementError, Recorder, Stages, TestResult, check_scale,
-                     choose_rate, finish, history_writer, run_meta, solver_choice,
-                     wire_law_or_default)
+                     choose_rate, compile_options, finish, history_writer, run_meta,
+                     solver_choice, wire_law_or_default)
 
 __all__ = ["cylinder_triaxial", "box_triaxial"]
 
@@ -512,11 +512,7 @@ def _compiled(sc, st, cfg):
     """The fixed floor's and the contact laws' last touches, then (model, state) with an end
     state's velocities and links carried over."""
     _laws_for(sc, cfg.mu, cfg.mu_wall, cfg.mu_wire, st.has_wire)
-    model, state = sc.compile(dt=cfg.dt, theta=cfg.theta, tol=cfg.tol, max_iter=cfg.max_iter,
-                              relax=cfg.relax, anderson=cfg.anderson, threads=cfg.threads,
-                              hot_sweeps=cfg.hot_sweeps,
-                              chain_solve=cfg.chain_solve,
-                              contact_compliance=cfg.contact_compliance)
+    model, state = sc.compile(**compile_options(cfg))
     return st.carry_over(model, state), state
 
 

@@ -23,6 +23,10 @@ unit strain) and T the tension [N] (positive in tension):
 ``ElasticWire(stiffness, prestrain)`` T = k max(g − L, 0)/L (Eq. 14-15)
 ``BrittleElasticWire(stiffness, prestrain, max_tension)``
     an elastic wire whose link breaks for good once T exceeds ``max_tension``.
+``LooseWire()``                      T = 0 always: the beads without their links' force
+    (a control: the beads keep their masses, contacts and the linked pairs' exclusion from
+    contact, so a sample with a loose wire differs from its TexSol twin by the links' force
+    alone).
 
 The rigid laws also take ``prestrain`` (their reference length is then g(0)/(1+ε₀)).
 """
@@ -41,6 +45,7 @@ RIGID_ROD = 1
 ELASTIC_ROD = 2
 RIGID_WIRE = 3
 ELASTIC_WIRE = 4
+LOOSE_WIRE = 5
 
 #: Width of the parameter row of every law.
 N_PARAM = 4
@@ -157,13 +162,33 @@ class BrittleElasticWire(ElasticWire):
     max_tension: float = Field(gt=0.0, allow_inf_nan=False, description="[N], > 0")
 
 
+class LooseWire(WireLaw):
+    """A link that carries no force, ever (T = 0): the control "beads without links".
+
+    Its stiffness is 0 (the limit k -> 0 of :class:`ElasticWire`); the solver skips such a
+    link, so its impulse is exactly 0 at every step.  The two beads keep their exclusion
+    from contact (as a linked pair of :meth:`engine.Scene.add_wire` with
+    ``neighbour_contact=False``), so the contacts are those of the same sample with a
+    working wire.
+    """
+
+    code: ClassVar[int] = LOOSE_WIRE
+    unilateral: ClassVar[bool] = True
+    prestrain: float = Field(0.0, ge=0.0, le=0.0, description="0: a loose wire has no "
+                                                               "reference length to prestrain")
+
+    @property
+    def stiffness_value(self) -> float:
+        return 0.0
+
+
 #: The default stiffness k [N] of an elastic law named in a run file or a sweep grid (the
 #: paper's ElasticWire(k = 1 N)).
 DEFAULT_STIFFNESS = 1.0
 
 #: Wire laws by the name run files and sweep grids give them ("none": sand only).
 WIRE_LAWS = {"elastic": ElasticWire, "rigid": RigidWire, "elastic_rod": ElasticRod,
-             "rigid_rod": RigidRod, "brittle": BrittleElasticWire}
+             "rigid_rod": RigidRod, "brittle": BrittleElasticWire, "loose": LooseWire}
 
 
 def wire_law(name, *, stiffness=None, prestrain=None, max_tension=None) -> WireLaw | None:
@@ -196,5 +221,5 @@ def wire_law(name, *, stiffness=None, prestrain=None, max_tension=None) -> WireL
 
 
 __all__ = ["wire_law", "WIRE_LAWS", "DEFAULT_STIFFNESS", "Law", "Coulomb", "WireLaw", "RigidRod", "ElasticRod", "RigidWire", "ElasticWire",
-           "BrittleElasticWire", "COULOMB", "RIGID_ROD", "ELASTIC_ROD", "RIGID_WIRE",
-           "ELASTIC_WIRE", "N_PARAM"]
+           "BrittleElasticWire", "LooseWire", "COULOMB", "RIGID_ROD", "ELASTIC_ROD",
+           "RIGID_WIRE", "ELASTIC_WIRE", "LOOSE_WIRE", "N_PARAM"]

@@ -144,7 +144,8 @@ def energy_sources(model, state) -> str | None:
     if model.options.contact_compliance > 0.0:
         why.append("compliant contacts")
     if model.n_links:
-        if np.isfinite(model.link_stiffness).any():
+        k = model.link_stiffness
+        if (np.isfinite(k) & (k > 0)).any():
             why.append("elastic links")
         d = state.position[model.link_i] - state.position[model.link_j]
         g = np.sqrt((d * d).sum(axis=1))

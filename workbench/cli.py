@@ -36,9 +36,10 @@ A TOML file for ``nscd run``::
     axial_strain = 0.05
     [wire]
     law = "elastic"                    # "elastic", "rigid", "elastic_rod", "rigid_rod",
-                                       # "brittle" or "none" (sand only)
+                                       # "brittle", "loose" (the beads with no link
+                                       # force: a control) or "none" (sand only)
     stiffness = 1.0                    # [N], the elastic laws only
-    prestrain = 0.0                    # ε₀, any law
+    prestrain = 0.0                    # ε₀, any law but "loose"
     # max_tension = 0.5                # [N], "brittle" only (required there)
     neighbour_contact = false          # true: linked beads also touch (Scene.add_wire)
 
@@ -74,10 +75,12 @@ from .render import CAMERAS, PRESETS  # noqa: E402  (no PyVista import: it is la
 # ---------------------------------------------------------------- configuration files
 
 class WireConfig(_Strict):
-    law: Literal["elastic", "rigid", "elastic_rod", "rigid_rod", "brittle", "none"] = Field(
+    law: Literal["elastic", "rigid", "elastic_rod", "rigid_rod", "brittle", "loose",
+                 "none"] = Field(
         "elastic", description="elastic: ElasticWire, rigid: RigidWire (tension only); "
                                "elastic_rod, rigid_rod: either sign; brittle: an elastic "
-                               "wire whose links break past max_tension; none: sand only")
+                               "wire whose links break past max_tension; loose: the beads "
+                               "with no link force (a control); none: sand only")
     stiffness: float = Field(1.0, gt=0, description="k [N], elastic laws only")
     prestrain: float = Field(0.0, gt=-1, le=1, description="ε₀ [-]: reference length g(0)/(1+ε₀)")
     max_tension: Optional[float] = Field(None, gt=0, description="[N], brittle only (required)")

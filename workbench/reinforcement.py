@@ -20,7 +20,8 @@ import os
 import numpy as np
 
 __all__ = ["BASELINE", "FACTORS", "STRAINS", "cases", "case", "summarize", "figure",
-           "markdown_table"]
+           "markdown_table", "CHAIN", "SIDE", "chain_cases", "chain_case", "summarize_chain",
+           "chain_markdown"]
 
 #: The strains at which q is compared [-].
 STRAINS = (0.02, 0.05, 0.10)
@@ -142,6 +143,7 @@ def case(*, name, wire, k, seed, runs_dir, scale=1.0, **params) -> dict:
     out.update(wire_eq_start=float(res.wire_equivalent[0]) if eps.size else math.nan,
                mean_stress_start=float(res.mean_stress[0]) if eps.size else math.nan,
                solid_fraction=start.get("solid_fraction", math.nan),
+               **{key: start.get(key, math.nan) for key in START_KEYS},
                taut_share=start.get("taut_share", math.nan),
                mean_tension=start.get("mean_tension", math.nan),
                max_tension=start.get("max_tension", math.nan),
@@ -161,6 +163,11 @@ def case(*, name, wire, k, seed, runs_dir, scale=1.0, **params) -> dict:
     return out
 
 
+#: What the cylinder test reports of the loading start on the basis every sample shares
+#: (``extra["start"]``: the membrane wraps grains and beads).
+START_KEYS = ("solid_fraction_all", "core_solid_fraction", "core_sand_fraction", "radius",
+              "sand_outer_radius")
+
 #: A run's last record counts as reaching a strain of :data:`STRAINS` this close below it
 #: [-] (the loading's last step ends within one step of the target: 0.09998 for 0.1).
 STRAIN_SLACK = 1e-3
@@ -175,6 +182,9 @@ def _q_at(eps, q, sand_stress, wire_stress) -> dict:
 
     eps = np.asarray(eps)
     out = dict(records=int(eps.size), final_strain=float(eps[-1]) if eps.size else math.nan)
+    if eps.size:
+        k = int(np.argmax(q))
+        out.update(q_peak=float(np.asarray(q)[k]), strain_peak=float(eps[k]))
     parts = (("q", np.asarray(q)), ("q_sand", _q_parts(sand_stress)),
              ("q_wire", _q_parts(wire_stress)),
              ("wire_eq", np.array([equivalent_stress(t) for t in np.asarray(wire_stress)])),
@@ -341,3 +351,127 @@ def markdown_table(summary: dict) -> str:
                      f"| {cell('q_5', 1e-3, '.2f')} | {cell('q_10', 1e-3, '.2f')} "
                      f"| {cell('solid_fraction', 1.0, '.3f')} |")
     return "\n".join(lines) + "\n"
+
+
+# -- the decomposition: sand -> matched sand -> loose beads -> TexSol -------------------------
+#: The chain that splits the gap between a TexSol sample and the sand, each step differing
+#: from the one before by one thing: the packing the beads leave in the sand (the TexSol
+#: sample's sand, laid around the beads, then prepared and tested without them), the beads
+#: as bodies (the TexSol sample with its links loose, :class:`engine.laws.LooseWire`), the
+#: links' force (the TexSol sample itself).
+CHAIN = (("sand", dict(wire="none", k=None)),
+         ("matched sand", dict(remove_beads="after_deposit")),
+         ("loose beads", dict(wire="loose", k=None)),
+         ("TexSol", {}))
+
+#: A control beside the chain: the TexSol sample's own packing at the start of the loading,
+#: its beads taken out there (``remove_beads="at_loading"``).
+SIDE = (("packing without beads", dict(remove_beads="at_loading")),)
+
+#: What every case of the chain shares unless a case says otherwise.
+CHAIN_BASE = dict(wire="elastic", k=1.0, preparation="paper", pressure=15e3,
+                  remove_beads="never")
+
+#: The figures :func:`summarize_chain` compares: q at each strain of :data:`STRAINS` and at
+#: its peak.
+CHAIN_TAGS = ("2", "5", "10", "peak")
+
+
+def chain_cases(seeds, scale=1.0, *, pressures=(15e3,), preparations=("paper",),
+                wire="elastic", k=1.0, axial_strain=0.1, side=True) -> list[dict]:
+    """The cases of the decomposition (:data:`CHAIN`, and :data:`SIDE` with ``side``) for
+    every seed, pressure [Pa] and preparation, seed-major; the TexSol sample's law is
+    ``wire`` with stiffness ``k`` [N] (None for the rigid wire)."""
+    out = []
+    steps = CHAIN + (SIDE if side else ())
+    for prep in preparations:
+        for p in pressures:
+            for seed in seeds:
+                for step, change in steps:
+                    c = dict(CHAIN_BASE, wire=wire, k=k, preparation=prep, pressure=float(p))
+                    c.update(change, seed=int(seed), scale=float(scale),
+                             axial_strain=float(axial_strain), step=step)
+                    c["name"] = _chain_name(c)
+                    out.append(c)
+    return out
+
+
+def _chain_name(c) -> str:
+    law = "sand" if c["wire"] == "none" else (
+        c["wire"] if c["k"] is None else f"{c['wire']}{c['k']:g}")
+    parts = ["chain", law]
+    if c["remove_beads"] != "never":
+        parts.append(f"removed-{c['remove_beads']}")
+    parts += [c["preparation"], f"p{c['pressure'] / 1e3:g}k", f"seed{c['seed']}"]
+    return "_".join(parts)
+
+
+def chain_case(*, step, **params) -> dict:
+    """One case of the chain (:func:`case`; ``step`` names its place in :data:`CHAIN`)."""
+    return case(**params)
+
+
+def _chain_group(p) -> str:
+    return f"{p['preparation']} preparation, p = {p['pressure'] / 1e3:g} kPa"
+
+
+def summarize_chain(rows: list[dict]) -> dict:
+    """``rows``: (params, result) of finished chain cases.  Per preparation and pressure:
+    each step of :data:`CHAIN` against the one before it, each step and the side control
+    against the sand, and the TexSol sample against its loose twin, as Δq/q paired by seed
+    at each of :data:`CHAIN_TAGS` (mean, two standard errors, per seed); and each step's
+    state at the start of the loading (solid fractions, core solid fraction, the membrane's
+    radius, the sand's outer radius)."""
+    groups: dict = {}
+    for p, r in rows:
+        g = groups.setdefault(_chain_group(p), {})
+        g.setdefault(p["step"], {})[p["seed"]] = r
+    names = [n for n, _ in CHAIN]
+    pairs = [(b, a) for a, b in zip(names, names[1:])]
+    pairs += [(n, "sand") for n in names[2:]] + [(n, "sand") for n, _ in SIDE]
+    pairs += [(n, "TexSol") for n, _ in SIDE]
+    out = {}
+    for key, g in groups.items():
+        o = out[key] = {"seeds": sorted({s for v in g.values() for s in v}), "pairs": {},
+                        "start": {}, "q": {}}
+        for b, a in pairs:
+            if a not in g or b not in g:
+                continue
+            seeds = sorted(set(g[a]) & set(g[b]))
+            entry = o["pairs"][f"{b} / {a}"] = {"seeds": seeds}
+            for tag in CHAIN_TAGS:
+                rel = [g[b][s][f"q_{tag}"] / g[a][s][f"q_{tag}"] - 1 for s in seeds
+                       if g[a][s].get(f"q_{tag}") and g[b][s].get(f"q_{tag}") is not None]
+                entry[f"dq_{tag}"] = _stats(rel)
+        for step, runs in g.items():
+            o["start"][step] = {k: _stats([r.get(k, math.nan) for r in runs.values()])
+                                for k in ("solid_fraction", *START_KEYS, "mean_tension",
+                                          "taut_share")}
+            o["q"][step] = {f"q_{t}": _stats([r.get(f"q_{t}", math.nan) for r in runs.values()])
+                            for t in CHAIN_TAGS}
+    return out
+
+
+def chain_markdown(summary: dict) -> str:
+    """The decomposition as Markdown: per preparation and pressure, each comparison's Δq/q
+    [%] (mean ± 2 SE) at 2, 5, 10 % and the peak; then each step's start."""
+    lines = []
+    for key, o in summary.items():
+        lines += [f"### {key} (seeds {', '.join(map(str, o['seeds']))})", "",
+                  "| comparison | seeds | Δq/q 2 % | Δq/q 5 % | Δq/q 10 % | Δq/q peak |",
+                  "|---|---|---|---|---|---|"]
+        for name, e in o["pairs"].items():
+            lines.append(f"| {name} | {len(e['seeds'])} | " + " | ".join(
+                _pm(e[f"dq_{t}"]) for t in CHAIN_TAGS) + " |")
+        lines += ["", "| sample | q 2 / 5 / 10 % / peak [kPa] | solid fraction (sand; all) | "
+                      "core solid fraction | R [mm] | sand's outer radius [mm] |",
+                  "|---|---|---|---|---|---|"]
+        for step, st in o["start"].items():
+            q = " / ".join(_pm(o["q"][step][f"q_{t}"], 1e-3, ".2f") for t in CHAIN_TAGS)
+            lines.append(f"| {step} | {q} | {_pm(st['solid_fraction'], 1.0, '.3f')}; "
+                         f"{_pm(st['solid_fraction_all'], 1.0, '.3f')} | "
+                         f"{_pm(st['core_solid_fraction'], 1.0, '.3f')} | "
+                         f"{_pm(st['radius'], 1e3, '.3f')} | "
+                         f"{_pm(st['sand_outer_radius'], 1e3, '.3f')} |")
+        lines.append("")
+    return "\n".join(lines)

@@ -12,6 +12,8 @@
 * :func:`macro_stiffness` — H, the slope of the linear part of (ε_zz, σ_w^eq) (Table 2);
   :func:`loading_curves` — axial strain, q, p and the wire's stress per record of a
   triaxial test's history;
+* :func:`solid_fraction` — the solid fraction of spheres in a cylinder region (each
+  sphere's part inside);
 * :func:`slope_profile` — h(r), floor pressure p(r), regressions, maximum slope (Fig. 10);
 * :mod:`engine.analysis.wire` — wire length density, orientation tensor, direction
   histograms (Fig. 8-9), tortuosity (Fig. 7).
@@ -19,6 +21,7 @@
 from .curves import MacroStiffness, loading_curves, macro_stiffness
 from .network import (ForceNetwork, box_strain, cylinder_strain, force_network, wall_forces,
                       wall_stress)
+from .packing import solid_fraction, sphere_volume_in_cylinder
 from .profiles import SlopeProfile, max_slope, slope_profile
 from .strain import StrainResult, best_fit_strain
 from .stress import StressResult, equivalent_stress, principal, weber_stress
@@ -32,4 +35,4 @@ __all__ = ["weber_stress", "equivalent_stress", "principal", "StressResult", "be
            "max_slope",
            "wall_stress", "box_strain", "cylinder_strain", "wire_chains", "wire_length",
            "length_density", "orientation_tensor", "direction_histogram", "tortuosity",
-           "WireStats", "wire_stats"]
+           "WireStats", "wire_stats", "solid_fraction", "sphere_volume_in_cylinder"]

@@ -13,7 +13,8 @@ from dataclasses import dataclass
 import numpy as np
 
 __all__ = ["wire_chains", "wire_length", "length_density", "orientation_tensor",
-           "direction_histogram", "tortuosity", "WireStats", "wire_stats"]
+           "direction_histogram", "tortuosity", "WireStats", "wire_stats", "Encasement",
+           "encasement"]
 
 _PLANES = {"xy": (0, 1), "xz": (0, 2), "yz": (1, 2)}
 
@@ -156,3 +157,37 @@ def wire_stats(chains, volume: float | None = None) -> WireStats:
                      orientation=A, eigenvalues=np.linalg.eigvalsh(A),
                      tortuosity=tortuosity(chains), n_wires=len(chains),
                      n_beads=int(sum(len(c) for c in chains)))
+
+
+@dataclass(frozen=True)
+class Encasement:
+    """A helical wire's confinement of the column it encases (:func:`encasement`).
+
+    tension : float [N]        the mean link tension T.
+    radius : float [m]         the mean distance R of the beads from the axis.
+    confinement : float [Pa]   Δσ₃ = T / (R s): the radial stress a ring of hoop tension T
+                               adds over its share s of the height (thin-walled ring).
+    """
+
+    tension: float
+    radius: float
+    confinement: float
+
+    def deviator_gain(self, k_p: float) -> float:
+        """Δq ≈ K_p Δσ₃ [Pa]: the deviator the encasement adds to a column of passive
+        coefficient K_p = (1 + sin φ)/(1 − sin φ) = σ₁/σ₃ (the total lateral stress held at
+        the confining pressure, the sand's raised by Δσ₃)."""
+        return float(k_p) * self.confinement
+
+
+def encasement(tension, positions, *, pitch: float, axis=(0.0, 0.0)) -> Encasement:
+    """The confinement a helix of ``pitch`` s [m] adds to the sand it encases: Δσ₃ = T/(R s),
+    T the mean of the link tensions ``tension`` (l,) [N], R the beads' mean distance from
+    the vertical ``axis`` (x, y) [m], ``positions`` (k, 3) [m] the beads' centres."""
+    p = np.asarray(positions, float).reshape(-1, 3)
+    s = float(pitch)
+    if not (np.isfinite(s) and s > 0):
+        raise ValueError(f"pitch must be a length > 0 [m], got {pitch!r}")
+    T = float(np.mean(tension))
+    R = float(np.mean(np.hypot(p[:, 0] - axis[0], p[:, 1] - axis[1])))
+    return Encasement(tension=T, radius=R, confinement=T / (R * s))

@@ -6,7 +6,7 @@ Each paper test has one model, :class:`CylinderConfig`, :class:`BoxConfig`,
 * ``scale``, ``seed``, ``neighbour_contact`` and ``wire``: the wire's law, a discriminated
   union (:data:`WireSpec`, keyed by ``law``) of :class:`NoWire`, :class:`DefaultWire`,
   :class:`RigidRodSpec`, :class:`ElasticRodSpec`, :class:`RigidWireSpec`,
-  :class:`ElasticWireSpec` and :class:`BrittleWireSpec`;
+  :class:`ElasticWireSpec`, :class:`BrittleWireSpec` and :class:`LooseWireSpec`;
 * ``solver``: :class:`Solver` (dt, θ, tol, max_iter, relax, threads, max_nonconverged and
   ``acceleration``, ONE field: :class:`HotSweeps` or :class:`Anderson`, so the two cannot be
   asked for together);
@@ -41,7 +41,7 @@ from ..model import MAX_ITER_LIMIT, solver_conflict
 __all__ = ["CONFIGS", "TestConfig", "CylinderConfig", "BoxConfig", "SlopeConfig",
            "DepositConfig", "Solver", "HotSweeps", "Anderson", "WireSpec", "NoWire",
            "DefaultWire", "RigidRodSpec", "ElasticRodSpec", "RigidWireSpec", "ElasticWireSpec",
-           "BrittleWireSpec", "wire_spec", "spec_of_law", "flat_model", "config_of",
+           "BrittleWireSpec", "LooseWireSpec", "wire_spec", "spec_of_law", "flat_model", "config_of",
            "STEP_LIMIT", "SEED_LIMIT", "HOT_SWEEPS"]
 
 #: Largest step count of the tests' integer parameters (steps, frames, intervals).
@@ -128,6 +128,17 @@ class BrittleWireSpec(_Law):
     max_tension: float = Field(gt=0, allow_inf_nan=False, description="[N], required")
 
 
+class LooseWireSpec(_Law):
+    """The control "beads without links" (:class:`engine.laws.LooseWire`: no link force)."""
+    LAW: ClassVar[str] = "LooseWire"
+    law: Literal["loose"] = "loose"
+
+    def to_law(self, default=None):  # noqa: D102
+        from .. import laws
+
+        return laws.LooseWire()
+
+
 #: A test's wire: one of the laws, keyed by ``law`` (what a dump stores).
 def _tagged_union(key: str, *classes):
     """A union of ``classes`` told apart by their field ``key`` (a callable discriminator:
@@ -141,7 +152,7 @@ def _tagged_union(key: str, *classes):
 
 _SPECS = {c.model_fields["law"].default: c for c in (
     NoWire, DefaultWire, RigidRodSpec, ElasticRodSpec, RigidWireSpec, ElasticWireSpec,
-    BrittleWireSpec)}
+    BrittleWireSpec, LooseWireSpec)}
 WireSpec = _tagged_union("law", *_SPECS.values())
 
 
@@ -181,7 +192,7 @@ def spec_of_law(law) -> _Law:
                          f"ElasticWire(k) ...), got {law!r}")
     for spec in _SPECS.values():
         if spec.LAW == type(law).__name__:
-            return spec(**law.model_dump())
+            return spec(**{k: v for k, v in law.model_dump().items() if k in spec.model_fields})
     raise ValueError(f"wire_law: no schema for {type(law).__name__}")  # pragma: no cover
 
 
@@ -320,8 +331,18 @@ class TriaxialPreparation(Strict):
     bead_radius: Optional[float] = Field(None, gt=0, le=1e-2,
                                          description="[m] the wire's bead radius r_w "
                                                      "(None: the paper's)")
-    wire_mode: Literal["isotropic", "orthotropic"] = Field(
-        "isotropic", description="the wire's walk: Eq. 16, or Eq. 17 in horizontal layers")
+    wire_mode: Literal["isotropic", "orthotropic", "helix"] = Field(
+        "isotropic", description="the wire's walk: Eq. 16, or Eq. 17 in horizontal layers; "
+                                 "helix: a helix one small-grain diameter inside the "
+                                 "cylinder's surface (a positive control, not the paper's)")
+    helix_pitch: Optional[float] = Field(None, gt=0, le=1.0,
+                                         description="[m] the helix's rise per turn "
+                                                     "(wire_mode = helix; None: d_max)")
+    remove_beads: Literal["never", "after_deposit", "at_loading"] = Field(
+        "never", description="a control: the wire sample's beads taken out after the "
+                             "geometric deposit (the sand laid around them, prepared and "
+                             "tested without them) or at the start of the loading (the "
+                             "same packing without its beads)")
     deposit_steps: int = Field(6000, ge=1, le=STEP_LIMIT,
                                description="most steps of the paper preparation's deposit")
     wire_prestrain: float = Field(0.0, ge=0, le=1, description=(

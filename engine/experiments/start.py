@@ -36,7 +36,14 @@ from ..prep import Box, Cylinder
 from ..prep.samples import Sample
 from ..state import State
 
-__all__ = ["PREPARATIONS", "Start", "start_of", "state_of"]
+__all__ = ["PREPARATIONS", "REMOVE_BEADS", "Start", "start_of", "state_of", "remove_group",
+           "without_wire"]
+
+#: When a control takes the beads out of a TexSol sample (``remove_beads=`` of the triaxial
+#: tests): never, after the geometric deposit (:func:`without_wire`: the sand laid around
+#: the beads, then prepared and tested without them), or at the start of the loading
+#: (:func:`remove_group`: the very packing the TexSol test loads, without its beads).
+REMOVE_BEADS = ("never", "after_deposit", "at_loading")
 
 #: The preparations of the triaxial tests (module docstring).
 PREPARATIONS = ("geometric", "paper")
@@ -225,6 +232,8 @@ def _law_of(model, k):
         return _laws.ElasticRod(stiffness=stiff)
     if code == _laws.RIGID_WIRE:
         return _laws.RigidWire()
+    if code == _laws.LOOSE_WIRE:
+        return _laws.LooseWire()
     if math.isfinite(tmax):
         return _laws.BrittleElasticWire(stiffness=stiff, max_tension=tmax)
     return _laws.ElasticWire(stiffness=stiff)
@@ -394,3 +403,49 @@ def start_of(test: str, shape: type, sample, build, *, wire: bool, wire_law=None
         raise ValueError(f"{test}: wire = False but the sample ({st.source}) has a wire of "
                          f"{st.n_beads} beads; give a sample built with wire=False")
     return st
+
+
+def without_wire(st: Start) -> Start:
+    """The :class:`Start` of a geometric sample's sand without its wire: the grains where
+    the geometric deposit laid them around the beads, the beads taken out (the control
+    ``remove_beads="after_deposit"``)."""
+    if st.sample is None or not st.has_wire:
+        raise ValueError(f"remove_beads = 'after_deposit' takes the beads out of a geometric "
+                         f"sample with a wire; the sample is {st.source}"
+                         + ("" if st.sample is None else " without a wire"))
+    smp = replace(st.sample, wire=[], wire_density=0.0,
+                  info=dict(st.sample.info, beads_removed=st.sample.n_beads))
+    out = from_sample(smp)
+    out.source = f"{st.source}, its {st.n_beads} beads removed after the geometric deposit"
+    return out
+
+
+def remove_group(model: Model, state: State, group: str) -> Model:
+    """Take the bodies of ``group`` out of the mechanics from the next step on: they touch
+    nothing (every pair of groups with ``group`` loses its law), their links carry no force
+    (:class:`engine.laws.LooseWire`) and they stay where they are, fixed (zero velocity and
+    spin).  They stay in the model and the files (so a history keeps one body count), out
+    of every contact, link force and stress.  The candidate pairs are rebuilt at the next
+    step.  Returns the new model; ``state`` is changed in place (the control
+    ``remove_beads="at_loading"``)."""
+    from ..model import IMPOSED, _frozen, pack_body_dyn
+
+    g = model.group_id(group)
+    ids = np.flatnonzero(model.body_group == g)
+    pair_law = model.pair_law.copy()
+    pair_law[g, :] = -1
+    pair_law[:, g] = -1
+    dof = model.body_dof.copy()
+    dof[ids] = IMPOSED
+    dyn = pack_body_dyn(model.body_kind, model.body_mass, model.body_inertia,
+                        model.body_radius, dof, model.body_line)
+    gone = np.isin(model.link_i, ids) | np.isin(model.link_j, ids)
+    law, stiff, uni = (model.link_law.copy(), model.link_stiffness.copy(),
+                       model.link_unilateral.copy())
+    law[gone], stiff[gone], uni[gone] = _laws.LOOSE_WIRE, 0.0, 1
+    state.vel6[ids] = 0.0
+    state.link_impulse[gone] = 0.0
+    state.pairs_ref = None
+    return replace(model, pair_law=_frozen(pair_law), body_dof=_frozen(dof),
+                   body_dyn=_frozen(dyn), link_law=_frozen(law), link_stiffness=_frozen(stiff),
+                   link_unilateral=_frozen(uni))

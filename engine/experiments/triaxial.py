@@ -57,7 +57,7 @@ from ..trigger import Updater
 from ..prep import Box, Cylinder, box_sample, cylinder_sample
 from ..scene import Scene
 from .config import CONFIGS
-from .start import check_preparation, start_of
+from .start import check_preparation, remove_group, start_of, without_wire
 from .common import (ConfinementError, Recorder, Stages, TestResult, check_scale,
                      choose_rate, compile_options, finish, history_writer, run_meta,
                      solver_choice, wire_law_or_default)
@@ -125,6 +125,7 @@ def cylinder_triaxial(scale: float = 0.05, *, sample=None, preparation: str = "g
                       pressure: float = 15e3, wire: bool = True, wire_law=None,
                       neighbour_contact: bool = False, wire_density: float | None = None,
                       wire_mode: str = "isotropic", bead_radius: float | None = None,
+                      helix_pitch: float | None = None, remove_beads: str = "never",
                       wire_prestrain: float = 0.0, confinement: str = "free_surface",
                       deposit_steps: int = 6000, axial_strain: float = 0.1,
                       strain_rate: float | None = None, target_I: float = 5e-4,
@@ -157,8 +158,9 @@ def cylinder_triaxial(scale: float = 0.05, *, sample=None, preparation: str = "g
 
     * ``sample``: None (the test builds :func:`~engine.prep.cylinder_sample` at ``scale``
       with ``seed``, ``wire_density`` [m/m³] (None: the paper's), ``wire_mode``
-      ("isotropic", Eq. 16, or "orthotropic", Eq. 17) and ``bead_radius`` r_w [m] (None:
-      the paper's 0.135 mm)); a geometric
+      ("isotropic", Eq. 16, "orthotropic", Eq. 17, or "helix": the positive control of an
+      encased column, ``helix_pitch`` [m] its rise per turn) and ``bead_radius`` r_w [m]
+      (None: the paper's 0.135 mm)); a geometric
       :class:`engine.prep.Sample` in a cylinder; or an end state: a ``(model, state)``
       pair, a result with a history (``gravity_deposit``'s) or a history or checkpoint
       path, whose "sand" and "wire" particles are taken with their velocities and the
@@ -167,6 +169,14 @@ def cylinder_triaxial(scale: float = 0.05, *, sample=None, preparation: str = "g
       sample relaxed under gravity in its mould first, :func:`gravity_deposit` with the
       test's solver options, ``mu_wall`` for the mould and at most ``deposit_steps``
       steps, its history ``<history>.deposit.h5``; then the mould removed).
+    * ``remove_beads``: the controls of the reinforcement study.  "never" (default);
+      "after_deposit": the wire sample is built (its sand laid around the beads), then its
+      beads are taken out and the sand alone is prepared and tested
+      (:func:`~engine.experiments.start.without_wire`); "at_loading": the TexSol sample is
+      prepared and confined with its wire, then its beads leave the mechanics at the start
+      of the loading (:func:`~engine.experiments.start.remove_group`: they stay in the
+      files, fixed, touching nothing).  The beads without their links' force are
+      ``wire_law=engine.laws.LooseWire()``.
     * ``wire_prestrain`` ε₀: at the start of the loading every link's reference length
       becomes g/(1+ε₀), g its length then, so the preparation cannot relax it.
     * ``confinement``: "free_surface" (§3.3, :class:`engine.drivers.Confinement`) or
@@ -215,20 +225,28 @@ def _prepared(test, shape, builder, a):
     and the prestrain are checked before any sample is built."""
     sample, wire, wire_density, wire_mode = (a["sample"], a["wire"], a["wire_density"],
                                              a["wire_mode"])
+    remove = a["remove_beads"]
+    if remove != "never" and not wire:
+        raise ValueError(f"{test}: remove_beads = {remove!r} takes the beads out of a wire "
+                         f"sample; wire = False has none")
     law = wire_law_or_default(a["wire_law"]) if wire else None
     _check_prestrain(test, a["wire_prestrain"], a["neighbour_contact"])
     preparation = check_preparation(a["preparation"])
-    given = [n for n, v in (("wire_density", wire_density), ("bead_radius", a["bead_radius"]))
-             if v is not None] + (["wire_mode"] if wire_mode != "isotropic" else [])
+    given = [n for n, v in (("wire_density", wire_density), ("bead_radius", a["bead_radius"]),
+                            ("helix_pitch", a["helix_pitch"])) if v is not None] \
+        + (["wire_mode"] if wire_mode != "isotropic" else [])
     if sample is not None and given:
         raise ValueError(f"{test}: {', '.join(given)} build(s) the test's own sample; with "
                          f"sample= given, build the sample with them "
                          f"(engine.prep.{shape.__name__.lower()}_sample)")
     def build():
+        helix = {} if a["helix_pitch"] is None else dict(helix_pitch=a["helix_pitch"])
         return builder(a["scale"], wire=wire, wire_density=wire_density, wire_mode=wire_mode,
-                       bead_radius=a["bead_radius"], seed=a["seed"])
+                       bead_radius=a["bead_radius"], seed=a["seed"], **helix)
 
     st = start_of(test, shape, sample, build, wire=wire, wire_law=a["wire_law"])
+    if remove == "after_deposit":
+        st, law = without_wire(st), None
     if preparation == "geometric":
         return st, None, st.wire_law(law) if st.has_wire else None
     if st.sample is None:
@@ -269,13 +287,57 @@ def _prestrained(model, state, eps):
     return replace(model, link_ref_length=g / (1.0 + float(eps)))
 
 
-def _loading_start(model, state, st, volume):
-    """What the sample is at the start of the loading: its sand's solid fraction in
-    ``volume`` [m³] and its wire's preload (share of taut links, mean and largest tension
-    [N])."""
-    out = dict(volume=float(volume), solid_fraction=float(
-        (4 / 3 * np.pi * (st.sand_radii ** 3).sum()) / volume))
-    if model.n_links:
+def _remove_beads(rig, stages, cfg) -> None:
+    """The control ``remove_beads="at_loading"``: the beads leave the mechanics
+    (:func:`~engine.experiments.start.remove_group`) and the membrane wraps the sand alone
+    from now on (its start radius kept for ``max_growth``)."""
+    state = rig.state
+    rig.model = stages.model = remove_group(rig.model, state, "wire")
+    state.load[rig.bead_ids] = 0.0
+    rig.removed = True
+    if rig.membrane is not None:
+        old = rig.membrane.membrane
+        rig.membrane.membrane = _membrane(cfg.confinement, rig.sand, rig.axis)
+        rig.membrane.membrane.start_radius = old.start_radius
+        rig.membrane.apply(rig.model, state)
+
+
+def _active(rig) -> np.ndarray:
+    """The particles in the mechanics: the sand and the beads (unless removed)."""
+    return rig.sand if rig.removed else np.r_[rig.sand, rig.bead_ids]
+
+
+def _loading_start(rig, volume):
+    """What the sample is at the start of the loading, on the basis every sample shares
+    (the particles the membrane wraps, beads included):
+
+    * ``volume`` [m³] (π R² H, R the membrane's radius; the box's L_x L_y H);
+    * ``solid_fraction``: the sand's in that volume, ``solid_fraction_all``: the sand's and
+      the beads';
+    * the cylinder's ``core_solid_fraction`` and ``core_sand_fraction``: the same within
+      r < 0.7 R and 0.1-0.9 H (:func:`engine.analysis.packing.solid_fraction`, each
+      particle's part inside), clear of the membrane's and the plates' wall effect;
+      ``radius`` R and ``sand_outer_radius``, the largest ‖x − axis‖ + r of the grains [m];
+    * the wire's preload: share of taut links, mean and largest tension [N]."""
+    from ..analysis.packing import solid_fraction
+
+    model, state, st = rig.model, rig.state, rig.st
+    ids = _active(rig)
+    r = model.body_radius
+    vol = 4 / 3 * np.pi * r ** 3
+    out = dict(volume=float(volume),
+               solid_fraction=float(vol[rig.sand].sum() / volume),
+               solid_fraction_all=float(vol[ids].sum() / volume))
+    if rig.membrane is not None:
+        R, H = rig.membrane.membrane.radius, rig.height(state)
+        x = state.position
+        core = Cylinder(0.7 * R, 0.8 * H, (rig.axis[0], rig.axis[1], x[rig.floor, 2] + 0.1 * H))
+        out.update(core_solid_fraction=solid_fraction(x[ids], r[ids], core),
+                   core_sand_fraction=solid_fraction(x[rig.sand], r[rig.sand], core),
+                   radius=float(R), sand_outer_radius=float(np.max(
+                       np.hypot(x[rig.sand, 0] - rig.axis[0], x[rig.sand, 1] - rig.axis[1])
+                       + r[rig.sand])))
+    if model.n_links and not rig.removed:
         t = state.links.tension
         out.update(taut_share=float(np.mean(t > 0)), mean_tension=float(t.mean()),
                    max_tension=float(t.max()))
@@ -312,13 +374,13 @@ def _start_extra(st, deposit, loading_start) -> dict:
 CONFINEMENTS = ("free_surface", "layer_crown")
 
 
-def _membrane(kind, sand, axis):
+def _membrane(kind, ids, axis):
     from ..drivers import LayerCrown
 
     if kind == "free_surface":
-        return Confinement(0.0, sand, center=axis, max_growth=RADIUS_RUNAWAY)
+        return Confinement(0.0, ids, center=axis, max_growth=RADIUS_RUNAWAY)
     if kind == "layer_crown":
-        return LayerCrown(0.0, sand, center=axis, max_growth=RADIUS_RUNAWAY)
+        return LayerCrown(0.0, ids, center=axis, max_growth=RADIUS_RUNAWAY)
     raise ValueError(f"confinement = {kind!r}: must be one of {', '.join(map(repr, CONFINEMENTS))}")
 
 
@@ -377,6 +439,7 @@ def box_triaxial(scale: float = 0.05, *, sample=None, preparation: str = "geomet
                  pressure: float = 15e3, wire: bool = True, wire_law=None,
                  neighbour_contact: bool = False, bead_radius: float | None = None,
                  wire_density: float | None = None, wire_mode: str = "isotropic",
+                 helix_pitch: float | None = None, remove_beads: str = "never",
                  wire_prestrain: float = 0.0, deposit_steps: int = 6000,
                  axial_strain: float = 0.05, strain_rate: float | None = None,
                  target_I: float = 5e-4, allow_dynamic: bool = False, dt: float = 5e-5,
@@ -492,6 +555,7 @@ class _Rig:
     n_load: int = 0
     strains: dict = field(default_factory=dict)
     maps: dict = field(default_factory=dict)
+    removed: bool = False           # the beads taken out at the loading (remove_beads)
 
     @property
     def d_mean(self) -> float:
@@ -611,12 +675,14 @@ def _loading(stages, rig, cfg) -> None:
     rig.stage = 1
     stages.set_stage("loading")
     state = rig.state
+    if cfg.remove_beads == "at_loading" and rig.st.has_wire:
+        _remove_beads(rig, stages, cfg)
     rig.H0 = rig.height(state)
     volume = (math.pi * rig.membrane.membrane.radius ** 2 * rig.H0 if rig.membrane is not None
               else float(np.prod(_box_dims(rig, state))))
     rig.R0 = rig.membrane.membrane.radius if rig.membrane is not None else 0.0
     rig.ref = state.position.copy()
-    rig.preload = _loading_start(rig.model, state, rig.st, volume)
+    rig.preload = _loading_start(rig, volume)
     model = rig.model
     if rig.st.has_wire and cfg.wire_prestrain:
         model = _prestrained(model, state, cfg.wire_prestrain)
@@ -637,6 +703,7 @@ def _params(rig, cfg, deposit) -> dict:
     return dict(scale=cfg.scale, sample=st.source, preparation=cfg.preparation,
                 wire_density=st.wire_density,
                 wire_mode=cfg.wire_mode if cfg.sample is None else None,
+                helix_pitch=cfg.helix_pitch, remove_beads=cfg.remove_beads,
                 bead_radius=st.bead_radius if wire else None,
                 wire_prestrain=cfg.wire_prestrain if wire else 0.0,
                 deposit_steps=cfg.deposit_steps if deposit is not None else None,
@@ -708,8 +775,14 @@ class _SampleApart(MembraneUpdater):
 def _cylinder_rig(st, cfg) -> _Rig:
     """The cylinder's scene: the sample on a fixed floor under a top plate driven by the
     pressure ramp on the area π R² of the membrane (:class:`MembraneUpdater`, every
-    ``confine_every`` steps), whose loads go on sand grains only (a cell's share on a light
-    wire bead accelerates it by ~1e6 m/s² and blew the run up); the membrane applied once."""
+    ``confine_every`` steps); the membrane applied once.  The membrane wraps every particle
+    of the sample, grains and beads alike: its radius and the volume π R² H come from the
+    outermost particle of each cell, whichever it is, and a bead on the surface takes its
+    share of the load like a grain, in proportion to its cross-section π r_w²
+    (:class:`engine.drivers.Confinement`).  (Until 2026-12-07 the membrane held the sand
+    only: in a wire sample the beads at the surface were left outside it, its radius came
+    from grains lying deeper, and the volume, the solid fraction and the stresses were
+    measured on a radius 4-5 % smaller than the sand sample's.)"""
     _check_width(st, cfg.scale)
     axis = st.axis()
     sc, sand, bead_ids = _scene(st, cfg)
@@ -720,7 +793,8 @@ def _cylinder_rig(st, cfg) -> _Rig:
              area=Servo("membrane"))
     sc.fix(floor)
     model, state = _compiled(sc, st, cfg)
-    membrane = _SampleApart(_membrane(cfg.confinement, np.asarray(sand), axis), top,
+    membrane = _SampleApart(_membrane(cfg.confinement, np.r_[np.asarray(sand), bead_ids],
+                                      axis), top,
                             _every_from(state.step, cfg.confine_every), cfg)
     membrane.apply(model, state)
     return _Rig(model, state, st, np.asarray(sand), bead_ids, floor, top, membrane=membrane,

@@ -16,7 +16,9 @@ Choices the paper leaves open, made here: the gap between beads is g_w = 0.2 r_w
 sand size (not given in the paper) is the one that fills the box with its 6 500 grains; the
 cylinder's bead radius is 0.9 r_min, the largest that gives its ~1 100 beads at 250 km·m⁻³;
 the slope's wire density is counted over the whole sample although the wire stays inside the
-outer layer.  The wire is built first by the isotropic walk (Eq. 16), then the sand by the
+outer layer.  The wire is built first by the isotropic walk (Eq. 16), the orthotropic walk
+(Eq. 17) or, for the cylinder only, as a helix (``wire_mode="helix"``, not in the paper: a
+sand column encased by the wire, :func:`engine.prep.wire.helix`), then the sand by the
 geometric deposit around it.  Every sample is "only geometrically admissible": relax it
 (:func:`engine.prep.relax`) before a test.
 """
@@ -33,7 +35,7 @@ from ..analysis.wire import wire_length
 from . import granulometry
 from .containers import Box, Cylinder
 from .deposit import DepositError, geometric
-from .wire import KM_PER_M3, random_walk
+from .wire import KM_PER_M3, helix, random_walk
 
 __all__ = ["Sample", "paper_sample", "cylinder_sample", "box_sample", "slope_sample", "PAPER",
            "WIRE_MODES"]
@@ -112,12 +114,18 @@ class Sample:
 
 
 def _build(name, container, wire_region, radii, *, wire, wire_density, bead_radius, seed,
-           wire_mode="isotropic", deposit_height_factor=1.5):
+           wire_mode="isotropic", helix_pitch=None, helix_inset=0.0, deposit_height_factor=1.5):
     bead_radius = float(bead_radius)
     gap = 0.2 * bead_radius
     t0 = time.perf_counter()
     chains = []
-    if wire:
+    if wire and wire_mode == "helix":
+        # the helix rises through the whole deposit mould (its beads take room, so the sand
+        # rises above the container's top) and is cut at the sand's top once it is laid
+        tall = Cylinder(wire_region.radius, wire_region.height * deposit_height_factor * 1.5,
+                        wire_region.center)
+        chains = helix(tall, bead_radius, gap, helix_pitch, inset=helix_inset)
+    elif wire:
         chains = random_walk(wire_region, bead_radius, gap,
                              length=wire_density * container.volume, seed=seed,
                              search_angle=math.pi / 4, mode=wire_mode)
@@ -144,6 +152,9 @@ def _build(name, container, wire_region, radii, *, wire, wire_density, bead_radi
             if attempt == 3:
                 raise
     t2 = time.perf_counter()
+    if chains and wire_mode == "helix":
+        top = float((centers[:, 2] + r).max())
+        chains = [c[c[:, 2] + bead_radius <= top] for c in chains]
     s = Sample(name=name, container=container, sand_centers=centers, sand_radii=r, wire=chains,
                bead_radius=bead_radius, gap=gap,
                wire_density=wire_length(chains) / container.volume if chains else 0.0)
@@ -158,27 +169,39 @@ def _build(name, container, wire_region, radii, *, wire, wire_density, bead_radi
 #: (issue 33); at 10 grains every sample builds, with and without a wire (seeds 0-3).
 MIN_GRAINS = 10
 
-#: The wire walks of the samples: Eq. (16) and Eq. (17) (:func:`engine.prep.random_walk`).
-WIRE_MODES = ("isotropic", "orthotropic")
+#: The wires of the samples: the walks of Eq. (16) and Eq. (17)
+#: (:func:`engine.prep.random_walk`) and the helix of the cylinder (:func:`engine.prep.helix`).
+WIRE_MODES = ("isotropic", "orthotropic", "helix")
 
 
 def _paper(name, container, wire_region, scale, *, wire, wire_density, bead_radius, seed,
-           wire_mode="isotropic"):
+           wire_mode="isotropic", helix_pitch=None):
     """The paper's grains for ``name`` at ``scale`` in ``container``, and the wire (walked by
     Eq. 16, ``wire_mode="isotropic"``, or Eq. 17, ``"orthotropic"``: horizontal layers with a
-    rise angle of 5°, :func:`engine.prep.random_walk`)."""
+    rise angle of 5°, :func:`engine.prep.random_walk`; or the cylinder's ``"helix"``, one
+    d_min inside the mould's side, of pitch ``helix_pitch`` or d_max)."""
     p = PAPER[name]
     if wire_mode not in WIRE_MODES:
         raise ValueError(f"wire_mode = {wire_mode!r}: must be one of "
                          f"{', '.join(map(repr, WIRE_MODES))}")
+    if wire_mode == "helix" and name != "cylinder":
+        raise ValueError(f"wire_mode = 'helix' needs the cylinder sample (a helix about its "
+                         f"axis), not the {name}: use 'isotropic' or 'orthotropic'")
+    if wire_mode == "helix" and wire_density is not None:
+        raise ValueError(f"wire_density must be None with wire_mode = 'helix' (the helix's "
+                         f"length is set by its helix_pitch), got {wire_density!r}")
+    if helix_pitch is not None and wire_mode != "helix":
+        raise ValueError(f"helix_pitch must be None with wire_mode = {wire_mode!r} (it is the "
+                         f"helix's pitch [m]), got {helix_pitch!r}")
     if isinstance(seed, bool) or not isinstance(seed, (int, np.integer)) or seed < 0:
         raise ValueError(f"seed must be an integer >= 0, got {seed!r}")
-    for key, v in (("wire_density", wire_density), ("bead_radius", bead_radius)):
+    for key, v in (("wire_density", wire_density), ("bead_radius", bead_radius),
+                   ("helix_pitch", helix_pitch)):
         if v is not None and (isinstance(v, bool) or not isinstance(v, (int, float, np.number))
                               or not (math.isfinite(v) and v > 0)):
             unit = "[m/m³]; None: the paper's" if key == "wire_density" else "[m]"
-            raise ValueError(f"{key} must be a number > 0 {unit} (wire=False for sand "
-                             f"only), got {v!r}")
+            hint = "" if key == "helix_pitch" else " (wire=False for sand only)"
+            raise ValueError(f"{key} must be a number > 0 {unit}{hint}, got {v!r}")
     n = int(round(p["n_sand"] * scale))
     if n < MIN_GRAINS:
         least = math.ceil(MIN_GRAINS / p["n_sand"] * 1e4) / 1e4
@@ -189,7 +212,8 @@ def _paper(name, container, wire_region, scale, *, wire, wire_density, bead_radi
     return _build(name, container, wire_region, radii, wire=wire,
                   wire_density=p["wire_density"] if wire_density is None else wire_density,
                   bead_radius=p["bead_radius"] if bead_radius is None else bead_radius, seed=seed,
-                  wire_mode=wire_mode)
+                  wire_mode=wire_mode, helix_inset=p["d_min"],
+                  helix_pitch=p["d_max"] if helix_pitch is None else helix_pitch)
 
 
 def _scale(scale):
@@ -200,34 +224,51 @@ def _scale(scale):
 
 
 def cylinder_sample(scale: float = 1.0, *, wire: bool = True, wire_density: float | None = None,
-                    bead_radius: float | None = None, seed: int = 0, wire_mode: str = "isotropic") -> Sample:
+                    bead_radius: float | None = None, seed: int = 0, wire_mode: str = "isotropic",
+                    helix_pitch: float | None = None) -> Sample:
     """The cylinder triaxial sample (§3.3): Ø9 mm × 20 mm, 6 200 grains Ø0.3–0.8 mm and a wire
-    at 250 km·m⁻³ (about 1 100 beads) at scale 1.  ``wire=False``: sand only."""
+    at 250 km·m⁻³ (about 1 100 beads) at scale 1.  ``wire=False``: sand only.
+
+    ``wire_mode="helix"`` (not in the paper): the wire is a helix about the axis, the beads'
+    outer edge one small-grain diameter d_min = 0.3 mm inside the mould's side, rising
+    ``helix_pitch`` [m] per turn: a sand column encased by the wire, a positive control of
+    the wire–sand coupling.  The default pitch s is d_max = 0.8 mm: the clear gap between
+    turns is then s − 2 r_w = 0.8 − 0.27 = 0.53 mm, so the largest grains cannot pass between
+    them (grains under 0.53 mm can).  The helix's length, hence the wire density, follows
+    from the pitch (at the default about 500 km·m⁻³ at scale 1, 920 at scale 0.1), so
+    ``wire_density`` must be None.  The sand is the same as with the other modes for one
+    ``seed``."""
     p = PAPER["cylinder"]
     s = _scale(scale)
     L = s ** (1.0 / 3.0)
     c = Cylinder(0.5 * p["diameter"] * L, p["height"] * L)
     return _paper("cylinder", c, c, s, wire=wire, wire_density=wire_density,
-                  bead_radius=bead_radius, seed=seed, wire_mode=wire_mode)
+                  bead_radius=bead_radius, seed=seed, wire_mode=wire_mode,
+                  helix_pitch=helix_pitch)
 
 
 def box_sample(scale: float = 1.0, *, wire: bool = True, wire_density: float | None = None,
-               bead_radius: float | None = None, seed: int = 0, wire_mode: str = "isotropic") -> Sample:
+               bead_radius: float | None = None, seed: int = 0, wire_mode: str = "isotropic",
+               helix_pitch: float | None = None) -> Sample:
     """The box triaxial sample (§3.2): a 16 mm cube, 6 500 grains and a wire at 200 km·m⁻³
     (8 000 particles in all at scale 1).  ``bead_radius`` r_w (Fig. 12: r_min, r_min/3,
-    r_min/4; default r_min)."""
+    r_min/4; default r_min).  ``wire_mode="helix"`` and ``helix_pitch`` are the cylinder's:
+    refused."""
     s = _scale(scale)
     a = PAPER["box"]["side"] * s ** (1.0 / 3.0)
     c = Box((0.0, 0.0, 0.0), (a, a, a))
     return _paper("box", c, c, s, wire=wire, wire_density=wire_density,
-                  bead_radius=bead_radius, seed=seed, wire_mode=wire_mode)
+                  bead_radius=bead_radius, seed=seed, wire_mode=wire_mode,
+                  helix_pitch=helix_pitch)
 
 
 def slope_sample(scale: float = 1.0, *, wire: bool = True, wire_density: float | None = None,
-                 bead_radius: float | None = None, seed: int = 0, wire_mode: str = "isotropic") -> Sample:
+                 bead_radius: float | None = None, seed: int = 0, wire_mode: str = "isotropic",
+                 helix_pitch: float | None = None) -> Sample:
     """The slope-deposit sample (§3.1): Ø12 mm × 14 mm, 26 000 grains Ø0.2–0.6 mm and a wire
     at 400 km·m⁻³ (about 2 900 beads Ø0.2 mm), with no wire in an outer layer 2 d_max thick
-    (at most a quarter of the radius).  ``wire_density=800e3`` gives the paper's TexSol(2)."""
+    (at most a quarter of the radius).  ``wire_density=800e3`` gives the paper's TexSol(2).
+    ``wire_mode="helix"`` and ``helix_pitch`` are the cylinder's: refused."""
     p = PAPER["slope"]
     s = _scale(scale)
     L = s ** (1.0 / 3.0)
@@ -235,14 +276,16 @@ def slope_sample(scale: float = 1.0, *, wire: bool = True, wire_density: float |
     layer = min(2 * p["d_max"], 0.25 * c.radius)
     inner = Cylinder(c.radius - layer, c.height)
     return _paper("slope", c, inner, s, wire=wire, wire_density=wire_density,
-                  bead_radius=bead_radius, seed=seed, wire_mode=wire_mode)
+                  bead_radius=bead_radius, seed=seed, wire_mode=wire_mode,
+                  helix_pitch=helix_pitch)
 
 
 _BUILDERS = {"cylinder": cylinder_sample, "box": box_sample, "slope": slope_sample}
 
 
 def paper_sample(name: str, scale: float = 1.0, **kw) -> Sample:
-    """``paper_sample("cylinder" | "box" | "slope", scale, wire=..., seed=...)``."""
+    """``paper_sample("cylinder" | "box" | "slope", scale, wire=..., seed=...)``; the
+    keywords go to the builder (``wire_mode="helix"`` and ``helix_pitch``: the cylinder's)."""
     if name not in _BUILDERS:
         raise ValueError(f"name must be one of {sorted(_BUILDERS)}, got {name!r}")
     return _BUILDERS[name](scale, **kw)

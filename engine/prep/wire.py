@@ -16,6 +16,9 @@ A draw is refused if the bead would leave the container or overlap a bead alread
 α_search = 4π/3 (the paper's "bypassing" / "rebound"); if those fail too the wire is cut and
 a new wire starts at a random free point.  The walk stops when the target length is reached.
 
+:func:`helix` is the one deterministic wire: a helix about a cylinder's axis, a positive
+control (not in the paper).
+
 Lengths in [m]; the voluminal length density is in m·m⁻³ (SI): the paper's 250 km·m⁻³ is
 ``density=2.5e5``.
 """
@@ -25,7 +28,7 @@ import math
 
 import numpy as np
 
-__all__ = ["random_walk", "KM_PER_M3"]
+__all__ = ["random_walk", "helix", "KM_PER_M3"]
 
 KM_PER_M3 = 1.0e3
 """One km·m⁻³ (the paper's unit of wire density) in m·m⁻³."""
@@ -289,3 +292,76 @@ def random_walk(container, bead_radius: float, gap: float, *, length: float | No
                     f"no free room is left for a new wire (bead_radius={r}, gap={g})")
         total += built
     return chains
+
+
+def helix(container, bead_radius: float, gap: float, pitch: float, *,
+          inset: float) -> list[np.ndarray]:
+    """A helical wire about a cylinder's axis: a sand column encased by the wire.
+
+    Not in the paper (its wires are random walks, Eq. 16-17): a deterministic positive
+    control of the wire–sand coupling.  The bead centres lie on the helix of radius
+    R_h = R − inset − r_w about the axis (the beads' outer edge ``inset`` inside the mould's
+    side), from z = floor + r_w up to at most top − r_w, rising ``pitch`` per turn and
+    starting on the +x side of the axis.  Consecutive centres are 2 r_w + g_w apart along the
+    chord: the angle step Δθ solves (2 R_h sin(Δθ/2))² + (pitch Δθ/2π)² = (2 r_w + g_w)².
+
+    Parameters
+    ----------
+    container : engine.prep.Cylinder
+        The mould [m].
+    bead_radius : float [m], > 0
+        r_w.
+    gap : float [m], >= 0
+        g_w: consecutive bead centres are s_w = 2 r_w + g_w apart.
+    pitch : float [m], > s_w / sqrt(1 − (s_w / 4 R_h)²)
+        The rise per turn.  The bound, at most 3.3 % above s_w (as R_h > s_w), keeps the
+        centres of adjacent turns at least s_w apart (sin x >= 2x/π bounds their distance).
+    inset : float [m], >= 0
+        The beads' outer edge is this far inside the mould's side.
+
+    Returns
+    -------
+    list of one (k, 3) float64 array: the bead centres in order (k >= 2).
+
+    Raises
+    ------
+    ValueError
+        A parameter out of range (naming it), or a mould too narrow or too low for the helix.
+    """
+    from .containers import Cylinder
+    if not isinstance(container, Cylinder):
+        raise ValueError(f"container must be an engine.prep.Cylinder (a helix needs an axis), "
+                         f"got {container!r}")
+    r, g, p, m = (float(v) for v in (bead_radius, gap, pitch, inset))
+    for name, v, least in (("bead_radius", r, "> 0"), ("gap", g, ">= 0"), ("pitch", p, "> 0"),
+                           ("inset", m, ">= 0")):
+        if not (math.isfinite(v) and (v > 0 or (v == 0 and least == ">= 0"))):
+            raise ValueError(f"{name} must be finite and {least} [m], got {v!r}")
+    s = 2.0 * r + g
+    rh = container.radius - m - r
+    if not rh > s:
+        raise ValueError(f"inset = {m:.6g} m: the helix radius R_h = radius - inset - "
+                         f"bead_radius = {rh:.6g} m must be > 2 bead_radius + gap = {s:.6g} m")
+    p_min = s / math.sqrt(1.0 - (s / (4.0 * rh)) ** 2)
+    if not p > p_min:
+        raise ValueError(f"pitch must be > {p_min:.6g} m (2 bead_radius + gap = {s:.6g} m on a "
+                         f"helix of radius {rh:.6g} m: adjacent turns must not touch), got {p!r}")
+    c = p / (2.0 * math.pi)                   # rise per radian [m]
+    lo, hi = 0.0, math.pi / 3.0               # the chord at π/3 is >= R_h > s
+    for _ in range(200):
+        mid = 0.5 * (lo + hi)
+        if (2.0 * rh * math.sin(0.5 * mid)) ** 2 + (c * mid) ** 2 < s * s:
+            lo = mid
+        else:
+            hi = mid
+        if hi - lo <= 4e-16 * hi:
+            break
+    dth = 0.5 * (lo + hi)
+    span = container.height - 2.0 * r
+    k = int(math.floor(span / (c * dth))) + 1 if span > 0 else 0
+    if k < 2:
+        raise ValueError(f"container.height = {container.height:.6g} m: must be >= 2 bead_radius "
+                         f"+ the rise per bead = {2 * r + c * dth:.6g} m for two beads")
+    th = dth * np.arange(k)
+    cx, cy, cz = container.center
+    return [np.column_stack([cx + rh * np.cos(th), cy + rh * np.sin(th), cz + r + c * th])]

@@ -329,8 +329,9 @@ def link_prepare(nl, link_i, link_j, ref_len, stiffness, broken, pos, body_dyn, 
     For link l between beads i and j at the θ-predicted configuration: n = (x_i − x_j)/g,
     g the centre distance, W = 1/m_i + 1/m_j (point contactors at the centres: no lever
     arm), the compliance c = L/(k h²) (0 for rigid laws).  Stored in
-    ``wl[l] = (W, 1/(W + c), g, L², h², 1/h)``, all zero for a link that is skipped (broken, or
-    rigid between two immobile beads, whose force is undetermined).  An elastic link between
+    ``wl[l] = (W, 1/(W + c), g, L², h², 1/h)``, all zero for a link that is skipped (broken,
+    loose: k = 0, :class:`engine.laws.LooseWire`, or rigid between two immobile beads, whose
+    force is undetermined).  An elastic link between
     two immobile beads still gets its force (T = k ε).  The previous step's impulse is
     applied to the beads.
     """
@@ -356,8 +357,9 @@ def link_prepare(nl, link_i, link_j, ref_len, stiffness, broken, pos, body_dyn, 
         W = imi + imj
         L = ref_len[l]
         k = stiffness[l]
-        c = L / (k * h * h) if k < np.inf else 0.0
-        if broken[l] or W + c <= 0.0:  # broken, or rigid between two immobile beads
+        c = L / (k * h * h) if (k < np.inf and k > 0.0) else 0.0
+        if broken[l] or k <= 0.0 or W + c <= 0.0:  # broken, loose (k = 0), or rigid
+            # between two immobile beads
             for q in range(wl.shape[1]):
                 wl[l, q] = 0.0
             impulse[l] = 0.0

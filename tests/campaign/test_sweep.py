@@ -427,7 +427,8 @@ def test_a_grid_names_every_wire_law_and_its_parameters(tmp_path, monkeypatch):
              "rigid_rod": (dict(prestrain=0.02), laws.RigidRod(prestrain=0.02)),
              "elastic_rod": (dict(k=3.0), laws.ElasticRod(stiffness=3.0)),
              "elastic": ({}, laws.ElasticWire(stiffness=1.0)),
-             "rigid": ({}, laws.RigidWire())}
+             "rigid": ({}, laws.RigidWire()),
+             "loose": ({}, laws.LooseWire())}
     for wire, (kw, want) in cases.items():
         _check_paper_cases("gravity_deposit", [dict(wire=wire, **kw)], {})
     for case, says in ((dict(wire="rigid", k=1.0), "the 'rigid' wire has no stiffness"),

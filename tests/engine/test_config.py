@@ -76,7 +76,7 @@ def test_errors_name_the_keyword_value_and_range_on_one_line():
 @pytest.mark.parametrize("law", [None, laws.RigidRod(), laws.ElasticRod(stiffness=3.0),
                                  laws.RigidWire(prestrain=0.1), laws.ElasticWire(stiffness=0.5),
                                  laws.BrittleElasticWire(stiffness=2.0, max_tension=0.4,
-                                                         prestrain=0.05)])
+                                                         prestrain=0.05), laws.LooseWire()])
 def test_the_wire_union_round_trips_through_json(law):
     wire = law is not None
     c = CylinderConfig.from_kwargs(wire=wire, wire_law=law)
@@ -102,6 +102,9 @@ def test_wire_spec_is_the_one_translation():
         wire_spec("rigid", k=2.0)
     with pytest.raises(ValueError, match="max_tension: required"):
         wire_spec("brittle")
+    assert wire_spec("loose").to_law() == laws.LooseWire()
+    with pytest.raises(ValueError, match="prestrain = 0.1"):
+        wire_spec("loose", prestrain=0.1)
     # the campaign, the paper runner and the run files go through it
     from workbench import cli
     from workbench.campaign.experiments import _law as campaign_law

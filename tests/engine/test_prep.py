@@ -9,8 +9,10 @@ from scipy.spatial import cKDTree
 from engine import Scene, laws
 from engine.analysis import (direction_histogram, length_density, orientation_tensor,
                              tortuosity, wall_forces, wire_chains)
-from engine.prep import (Box, Cylinder, DepositError, Sphere, cylinder_sample, geometric,
-                         granulometry, random_walk, relax)
+from engine.analysis.wire import wire_length
+from engine.prep import (PAPER, Box, Cylinder, DepositError, Sphere, box_sample, cylinder_sample,
+                         geometric, granulometry, helix, paper_sample, random_walk, relax,
+                         slope_sample)
 
 from ..helpers import G
 
@@ -154,6 +156,90 @@ def test_random_walk_bad_input(kw, field):
     args.update(kw)
     with pytest.raises(ValueError, match=field):
         random_walk(**args)
+
+
+# ---------------------------------------------------------------- helix
+
+def test_helix_geometry():
+    cyl = Cylinder(2e-3, 6e-3, center=(1e-3, -0.5e-3, 0.2e-3))
+    r, gap, pitch, inset = 0.135e-3, 0.027e-3, 0.8e-3, 0.3e-3
+    [b] = helix(cyl, r, gap, pitch, inset=inset)
+    s, rh = 2 * r + gap, cyl.radius - inset - r
+    d = b - cyl.center
+    rad = np.hypot(d[:, 0], d[:, 1])
+    np.testing.assert_allclose(rad, rh, rtol=1e-12)
+    assert rad.max() + r == pytest.approx(cyl.radius - inset, rel=1e-12)      # outer edge
+    np.testing.assert_allclose(np.linalg.norm(np.diff(b, axis=0), axis=1), s, rtol=1e-9)
+    # from the floor to the top, one rise per turn
+    assert d[0, 2] == pytest.approx(r, rel=1e-12)
+    assert cyl.height - r - s < d[-1, 2] <= cyl.height - r
+    th = np.unwrap(np.arctan2(d[:, 1], d[:, 0]))
+    n = int(np.sum(th < th[0] + 2 * np.pi))                                  # beads per turn
+    assert np.all(np.abs(d[n:, 2] - d[:-n, 2] - pitch) < s)
+    # adjacent turns: no two centres closer than s (consecutive ones exactly s apart)
+    assert max_overlap(b, np.full(len(b), s / 2)) <= 1e-9
+    assert np.all(cyl.shrunk(r * (1 - 1e-9)).contains(b))
+    assert np.array_equal(b, helix(cyl, r, gap, pitch, inset=inset)[0])        # deterministic
+
+
+@pytest.mark.parametrize("kw, field", [
+    (dict(pitch=0.297e-3), "pitch"),                     # = 2 r_w + g_w: turns would touch
+    (dict(pitch=-1e-3), "pitch"),
+    (dict(inset=1.7e-3), "inset"),                       # R_h below the bead spacing
+    (dict(inset=-1e-4), "inset"),
+    (dict(bead_radius=0.0), "bead_radius"),
+    (dict(gap=-1e-5), "gap"),
+    (dict(container=Box((0, 0, 0), (4e-3, 4e-3, 6e-3))), "container"),
+    (dict(container=Cylinder(2e-3, 0.28e-3)), "container.height"),
+])
+def test_helix_bad_input(kw, field):
+    args = dict(container=Cylinder(2e-3, 6e-3), bead_radius=0.135e-3, gap=0.027e-3,
+                pitch=0.8e-3, inset=0.3e-3)
+    args.update(kw)
+    with pytest.raises(ValueError, match=field):
+        helix(**args)
+
+
+def test_cylinder_sample_with_helix():
+    """The helix's sample: the helix of the mould (one d_min inside, pitch d_max) up to the
+    sand's top (the beads take room, so the sand rises above the mould's top: the helix
+    rises with it), the sand of the sand-only sample of the same seed around it, nothing
+    overlapping."""
+    p = PAPER["cylinder"]
+    s = cylinder_sample(0.1, wire_mode="helix", seed=0)
+    sand = cylinder_sample(0.1, wire=False, seed=0)
+    [b] = s.wire
+    c = s.container
+    tall = Cylinder(c.radius, 10 * c.height, c.center)
+    full = helix(tall, s.bead_radius, s.gap, p["d_max"], inset=p["d_min"])[0]
+    np.testing.assert_array_equal(b, full[:len(b)])
+    top = s.info["sand_top"]
+    assert b[-1, 2] + s.bead_radius <= top < full[len(b), 2] + s.bead_radius
+    assert np.array_equal(np.sort(s.sand_radii), np.sort(sand.sand_radii))
+    assert max_overlap(np.vstack([s.sand_centers, b]),
+                       np.r_[s.sand_radii, np.full(len(b), s.bead_radius)]) <= 1e-9
+    rr = np.hypot(s.sand_centers[:, 0], s.sand_centers[:, 1])
+    assert np.all(rr + s.sand_radii <= s.container.radius * (1 + 1e-12))
+    assert s.wire_density == pytest.approx(wire_length(s.wire) / s.container.volume, rel=1e-12)
+    # a coarser pitch, through paper_sample: fewer beads
+    s2 = paper_sample("cylinder", 0.1, wire_mode="helix", helix_pitch=1.2e-3, seed=0)
+    assert 0 < s2.n_beads < s.n_beads
+
+
+@pytest.mark.parametrize("build, kw, field", [
+    (cylinder_sample, dict(wire_mode="helix", wire_density=5e5), "wire_density"),
+    (cylinder_sample, dict(helix_pitch=1e-3), "helix_pitch"),
+    (cylinder_sample, dict(wire_mode="orthotropic", helix_pitch=1e-3), "helix_pitch"),
+    (cylinder_sample, dict(wire_mode="helix", helix_pitch=-1e-3), "helix_pitch"),
+    (cylinder_sample, dict(wire_mode="helix", helix_pitch=0.2e-3), "pitch"),
+    (box_sample, dict(wire_mode="helix"), "wire_mode"),
+    (slope_sample, dict(wire_mode="helix"), "wire_mode"),
+    (box_sample, dict(helix_pitch=1e-3), "helix_pitch"),
+])
+def test_helix_sample_refusals(build, kw, field):
+    with pytest.raises(ValueError, match=field) as e:
+        build(0.1, seed=0, **kw)
+    assert "\n" not in str(e.value)
 
 
 # ---------------------------------------------------------------- wire statistics

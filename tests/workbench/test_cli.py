@@ -55,7 +55,7 @@ def test_info_render_export(demo, tmp_path, capsys):
     ('test = "slope_deposit"\n[parameters]\nmax_iter = 9223372036854775807\n',
      "parameters.max_iter = 9223372036854775807: must be an integer in [1, 1000000000]"),
     ('test = "slope_deposit"\n[wire]\nlaw = "rope"\n',
-     "wire.law = 'rope': must be one of 'elastic', 'rigid', 'elastic_rod', 'rigid_rod', 'brittle', 'none'"),
+     "wire.law = 'rope': must be one of 'elastic', 'rigid', 'elastic_rod', 'rigid_rod', 'brittle', 'loose', 'none'"),
     ('test = "box_triaxial"\nsede = 1\n[parameters]\npresure = 1e4\ndt = -1\n',
      "3 problem(s) (box_triaxial)\n  sede = 1: unknown field (the fields are: test, scale, seed"),
     ('test = = 1', "not valid TOML"),
@@ -159,7 +159,7 @@ def test_run_help_lists_every_parameter_with_its_range(capsys):
                  "default: the test function's own (cylinder_triaxial 0.05, box_triaxial "
                  "0.05, slope_deposit 0.02, gravity_deposit 0.05)",
                  "law: default 'elastic'; one of 'elastic', 'rigid', 'elastic_rod', 'rigid_rod', "
-                 "'brittle', 'none' — elastic: ElasticWire",
+                 "'brittle', 'loose', 'none' — elastic: ElasticWire",
                  "[parameters] of slope_deposit:", "theta: default 0.5; a number in [0.5, 1]",
                  "pressure: default 15000.0; a number in (0, 1e+09] — [Pa]",
                  "strain_rate: default None; a number in (0, 1000] — [1/s]"):
@@ -257,6 +257,7 @@ def test_run_files_know_every_wire_law(tmp_path):
           "rigid_rod": ({}, laws.RigidRod()),
           "brittle": ({"stiffness": 2.0, "max_tension": 0.5},
                       laws.BrittleElasticWire(stiffness=2.0, max_tension=0.5)),
+          "loose": ({}, laws.LooseWire()),
           "none": ({}, None)}
     for law, (kw, want) in ok.items():
         cfg, _ = cli.validate_config({"test": "gravity_deposit", "wire": {"law": law, **kw}})
@@ -265,6 +266,7 @@ def test_run_files_know_every_wire_law(tmp_path):
                        ({"law": "rigid_rod", "stiffness": 2.0}, "the 'rigid_rod' wire has no "
                                                                 "stiffness"),
                        ({"law": "elastic", "max_tension": 1.0}, "has no max_tension"),
+                       ({"law": "loose", "stiffness": 1.0}, "the 'loose' wire has no stiffness"),
                        ({"law": "elastic", "prestrain": 2.0},
                         r"wire.prestrain = 2.0: must be a number in \(-1, 1\]")):
         with pytest.raises(cli.ConfigError, match=says):

@@ -1,7 +1,7 @@
 """The paper's tests as campaign experiments: JSON-able parameters in, the test result's
 scalars out (:meth:`engine.experiments.TestResult.scalars` and its kind).
 
-``wire = "elastic" | "rigid" | "elastic_rod" | "rigid_rod" | "brittle" | "none"`` with ``k``
+``wire = "elastic" | "rigid" | "elastic_rod" | "rigid_rod" | "brittle" | "loose" | "none"`` with ``k``
 [N], ``prestrain`` and ``max_tension`` stand for the law object, which is not JSON-able.
 """
 from __future__ import annotations

@@ -33,6 +33,7 @@ from engine import io, laws  # noqa: E402
 from engine.analysis.wire import encasement  # noqa: E402
 from engine.experiments import cylinder_triaxial  # noqa: E402
 from engine.prep import PAPER  # noqa: E402
+from workbench.campaign import not_interrupted  # noqa: E402
 
 HERE = os.path.dirname(os.path.abspath(__file__))
 
@@ -45,18 +46,102 @@ def end_values(res, window=0.1):
     return float(q[sel].mean()), float(e[-1])
 
 
-def one_pair(scale, seed, law, strain, pitch, pressure, out_dir, **kw):
+def loading_of(path):
+    """The loading's records of a cylinder test's history (from the last isotropic one, as
+    the test's result has them): history, step, axial_strain, deviator [Pa]."""
+    from types import SimpleNamespace
+
+    h = io.read_history(path, frames=False)
+    st = np.asarray(h.extra["stage"])
+    sel = slice(int(np.flatnonzero(st == 1)[0]) - 1, None)
+    H = np.asarray(h.extra["height"])[sel]
+    t = np.asarray(h.extra["stress"])[sel]
+    return SimpleNamespace(history=path, step=np.asarray(h.step)[sel].astype(int),
+                           axial_strain=1 - H / H[0],
+                           deviator=-t[:, 2, 2] + (t[:, 0, 0] + t[:, 1, 1]) / 2,
+                           wire_stress=np.asarray(h.extra["wire_stress"])[sel])
+
+
+def window_values(enc, loose, pitch, pressure, lo=0.5):
+    """Means over the second half of the loading (strain >= ``lo`` × the final strain) of
+    the measured Δq [Pa] and of three predictions [Pa], q of both runs compared at the same
+    strain and K_p = (q_loose + p)/p there:
+
+    * ``ring``: K_p T/(R s), T and R from the encased run's frames (the thin ring of the
+      helix's radius);
+    * ``section``: K_p σ_w,rr, σ_w,rr = (σ_xx + σ_yy)/2 of the wire's Weber stress in the
+      records (Eq. 18 over the sample's volume π R_m² H: T R/(R_m² s) for a helix of radius
+      R in a membrane of radius R_m, the ring's Δσ₃ averaged over the whole section);
+    * ``section_increment``: K_p (σ_w,rr − its value at the start of the loading).
+
+    Returns a dict of the four means and the number of records and frames used."""
+    def rr(w):
+        w = np.asarray(w)
+        return (w[:, 0, 0] + w[:, 1, 1]) / 2
+
+    e = np.asarray(enc.axial_strain)
+    sel = e >= lo * e[-1]
+    q_l = np.interp(e, loose.axial_strain, loose.deviator)
+    k_p = (q_l + pressure) / pressure
+    w = rr(enc.wire_stress)
+    out = dict(dq=float((enc.deviator - q_l)[sel].mean()),
+               section=float((k_p * w)[sel].mean()),
+               section_increment=float((k_p * (w - w[0]))[sel].mean()), records=int(sel.sum()))
+    steps, _ = io.frame_index(enc.history)
+    e_f = np.interp(steps, enc.step, e, left=np.nan, right=np.nan)
+    frames = np.flatnonzero(np.isfinite(e_f) & (e_f >= lo * e[-1]))
+    beads = io.load_model(enc.history).bodies_in("wire")
+    ring = []
+    for k, f in zip(frames, io.frame_arrays(enc.history, ["position", "link_tension"],
+                                            frames=frames)):
+        g = encasement(f["link_tension"], f["position"][beads], pitch=pitch)
+        ql = np.interp(e_f[k], loose.axial_strain, loose.deviator)
+        ring.append(g.deviator_gain((ql + pressure) / pressure))
+    out.update(ring=float(np.mean(ring)) if ring else float("nan"), frames=int(len(ring)))
+    return out
+
+
+def core_stress(path, *, last=30, every=3, inner=0.8):
+    """The sand's Weber stress (Eq. 18, contacts only) in the core of a helix run's last
+    ``last`` frames (every ``every``-th): the region r < ``inner`` × the helix's radius (for
+    a loose twin: its beads' mean radius), 0.2-0.8 of the sand's height.  Returns the mean
+    (σ_rr, σ_zz) [Pa], compression positive, and the mean T/(R s) [Pa] of those frames
+    (0 for a loose twin): whether the hoop tension reaches the sand it encases."""
+    from engine.analysis import weber_stress
+    from engine.prep import Cylinder
+
+    steps, _ = io.frame_index(path)
+    model = io.load_model(path)
+    beads, sand = model.bodies_in("wire"), model.bodies_in("sand")
+    pitch = PAPER["cylinder"]["d_max"]
+    rows = []
+    for k in range(max(0, len(steps) - last), len(steps), every):
+        m, st = io.load(path, frame=k)
+        x, r = st.position, m.body_radius
+        z0, z1 = (x[sand, 2] - r[sand]).min(), (x[sand, 2] + r[sand]).max()
+        rh = float(np.hypot(x[beads, 0], x[beads, 1]).mean())
+        reg = Cylinder(inner * rh, 0.6 * (z1 - z0), (0.0, 0.0, z0 + 0.2 * (z1 - z0)))
+        s = weber_stress(m, st, region=reg, part="sand").tensor
+        t = float(st.links.tension.mean()) if m.n_links else 0.0
+        rows.append((-(s[0, 0] + s[1, 1]) / 2, -s[2, 2], t / (rh * pitch)))
+    return tuple(float(v) for v in np.mean(rows, axis=0))
+
+
+def one_pair(scale, seed, law, strain, pitch, pressure, out_dir, frames=10, inset=None,
+             **kw):
     """The helix run with ``law`` and its loose twin; returns the measured and predicted
-    deviator gains at the end of the loading."""
-    common = dict(wire_mode="helix", helix_pitch=pitch, axial_strain=strain,
-                  pressure=pressure, seed=seed, progress=False, **kw)
+    deviator gains at the end of the loading and over its second half (``frames``: the
+    histories' frame interval [steps]; ``inset``: the helix's depth under the surface [m],
+    None: d_min)."""
+    common = dict(wire_mode="helix", helix_pitch=pitch, helix_inset=inset, axial_strain=strain,
+                  pressure=pressure, seed=seed, progress=False, frames=frames, **kw)
     runs, t0 = {}, time.time()
     for name, lw in (("encased", law), ("loose", laws.LooseWire())):
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")
-            runs[name] = cylinder_triaxial(
+            runs[name] = not_interrupted(cylinder_triaxial(
                 scale, wire_law=lw, history=os.path.join(out_dir, f"{name}-{scale}-{seed}.h5"),
-                **common)
+                **common), name, dict(scale=scale, seed=seed))
     q_enc, eps = end_values(runs["encased"])
     q_loose, _ = end_values(runs["loose"])
     model, state = io.load(runs["encased"].history, frame=-1)
@@ -66,10 +151,15 @@ def one_pair(scale, seed, law, strain, pitch, pressure, out_dir, **kw):
     enc = encasement(state.links.tension, state.position[beads], pitch=s)
     k_p = (q_loose + pressure) / pressure
     pred = enc.deviator_gain(k_p)
-    return dict(seed=seed, scale=scale, strain=eps, q_encased=q_enc, q_loose=q_loose,
+    win = window_values(runs["encased"], runs["loose"], s, pressure)
+    core = {n: core_stress(runs[n].history) for n in ("encased", "loose")}
+    return dict(seed=seed, scale=scale, strain=eps, core=core, q_encased=q_enc, q_loose=q_loose,
                 dq=q_enc - q_loose, dq_rel=q_enc / q_loose - 1, tension=enc.tension,
                 helix_radius=enc.radius, pitch=s, k_p=k_p, delta_sigma3=enc.confinement,
                 dq_predicted=pred, ratio=(q_enc - q_loose) / pred if pred else None,
+                inset=inset, window=win,
+                window_ratio={k: win["dq"] / win[k] for k in ("ring", "section",
+                                                             "section_increment")},
                 start_radius=[runs[n].extra["start"]["radius"] for n in ("encased", "loose")],
                 n_beads=runs["encased"].params["n_beads"], wall=time.time() - t0)
 
@@ -83,6 +173,8 @@ def main(argv=None):
     ap.add_argument("--strain", type=float, default=0.05)
     ap.add_argument("--pitch", type=float, default=None, help="[m] (default d_max)")
     ap.add_argument("--pressure", type=float, default=15e3, help="[Pa]")
+    ap.add_argument("--inset", type=float, default=None,
+                    help="[m] the helix's depth under the surface (default d_min)")
     ap.add_argument("--out", default=os.path.join("out", "control-helix"))
     a = ap.parse_args(argv)
     os.makedirs(a.out, exist_ok=True)
@@ -90,12 +182,15 @@ def main(argv=None):
     rows, verdicts = [], {}
     for scale in a.scale:
         for seed in a.seeds:
-            r = one_pair(scale, seed, law, a.strain, a.pitch, a.pressure, a.out)
+            r = one_pair(scale, seed, law, a.strain, a.pitch, a.pressure, a.out, inset=a.inset)
             rows.append(r)
             print(f"scale {scale:g} seed {seed}: q {r['q_encased']:.0f} vs {r['q_loose']:.0f} "
                   f"Pa (dq {r['dq']:.0f} Pa, {100 * r['dq_rel']:+.1f} %), T {1e3 * r['tension']:.2f}"
                   f" mN, R {1e3 * r['helix_radius']:.3f} mm, K_p {r['k_p']:.2f}, predicted "
-                  f"{r['dq_predicted']:.0f} Pa, ratio {r['ratio']:.2f} ({r['wall']:.0f} s)",
+                  f"{r['dq_predicted']:.0f} Pa, ratio {r['ratio']:.2f}; second half: dq "
+                  f"{r['window']['dq']:.0f} Pa, ratios ring {r['window_ratio']['ring']:.2f} "
+                  f"section {r['window_ratio']['section']:.2f} increment "
+                  f"{r['window_ratio']['section_increment']:.2f} ({r['wall']:.0f} s)",
                   flush=True)
         sel = [r for r in rows if r["scale"] == scale]
         dq = np.array([r["dq"] for r in sel])
@@ -105,12 +200,15 @@ def main(argv=None):
             dq_mean=float(dq.mean()), dq_2se=float(2 * se),
             stronger=bool(dq.mean() > 2 * se), ratio_mean=float(ratio.mean()),
             ratio_2se=float(2 * ratio.std(ddof=1) / np.sqrt(ratio.size)) if ratio.size > 1
-            else None, closed_form_within_30pct=bool(abs(ratio.mean() - 1) <= 0.3))
+            else None, closed_form_within_30pct=bool(abs(ratio.mean() - 1) <= 0.3),
+            window_ratio_mean={k: float(np.mean([r["window_ratio"][k] for r in sel]))
+                               for k in ("ring", "section", "section_increment")})
         print(f"scale {scale:g}: {verdicts[str(scale)]}", flush=True)
     stamp = time.strftime("%Y%m%d-%H%M")
     path = os.path.join(HERE, "results", f"control-helix-{stamp}.json")
     with open(path, "w") as f:
         json.dump(dict(law=repr(law), strain=a.strain, pressure=a.pressure, pitch=a.pitch,
+                       inset=a.inset,
                        seeds=a.seeds, criterion="stronger beyond 2 SE; mean measured/predicted "
                        "dq within 1 +- 0.3", rows=rows, verdicts=verdicts), f, indent=1)
     print(path)

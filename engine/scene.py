@@ -478,7 +478,8 @@ class Scene:
             law_param = np.zeros((1, _laws.N_PARAM))
         return names, pair_law, law_code, law_param, tuple(law_list)
 
-    def _check_overlaps(self, pos, radius, kind, axis, height, caps, sphere_ids) -> None:
+    def _check_overlaps(self, pos, radius, kind, axis, height, caps, sphere_ids,
+                        group=None, pair_law=None) -> None:
         # linked beads that get no contact may overlap (a slack link of a saved state)
         excluded = -np.ones(pos.shape[0], np.int32)
         for lk in self._links:
@@ -503,8 +504,13 @@ class Scene:
                 raise ValueError(f"{int(bad.sum())} pairs of spheres overlap by more than "
                                  f"{OVERLAP_TOLERANCE:.0%} of the smaller radius, e.g. ids {worst}")
         for w in np.flatnonzero(kind != SPHERE):
-            x = pos[sphere_ids] - pos[w]
-            r = radius[sphere_ids]
+            seen = sphere_ids
+            if pair_law is not None:
+                # a sphere whose group has no law with the wall's never touches it: it may
+                # lie behind it (a wire passing through a wall that holds only the sand)
+                seen = sphere_ids[pair_law[group[sphere_ids], group[w]] >= 0]
+            x = pos[seen] - pos[w]
+            r = radius[seen]
             a = axis[w]
             h = x @ a
             if kind[w] == PLANE:
@@ -522,7 +528,7 @@ class Scene:
                 if bad.any():
                     raise ValueError(f"{int(bad.sum())} spheres penetrate wall {w} by more than "
                                      f"{OVERLAP_TOLERANCE:.0%} of their radius, e.g. ids "
-                                     f"{sphere_ids[bad][:10].tolist()}")
+                                     f"{seen[bad][:10].tolist()}")
 
     def compile(self, dt: float, theta: float = 0.5, tol: float = 1e-4, max_iter: int = 1000,
                 relax: float = 1.0, alert: float | None = None, skin: float | None = None,
@@ -567,7 +573,8 @@ class Scene:
         ValueError
             Bad option (field and range named), unknown group names, pairs of groups that
             can touch with no declared law, spheres overlapping by more than 1 % of the
-            smaller radius (ids named), spheres penetrating walls.
+            smaller radius (ids named), spheres penetrating walls (those whose groups
+            interact: a sphere may lie behind a wall its group has no law with).
         """
         nb = self.n_bodies
         if nb == 0:
@@ -615,7 +622,8 @@ class Scene:
         pos = np.asarray(self._pos, float).reshape(nb, 3)
         height = np.asarray(self._height, float)
         caps = np.asarray(self._caps, np.int8)
-        self._check_overlaps(pos, radius, kind, axis, height, caps, sphere_ids)
+        self._check_overlaps(pos, radius, kind, axis, height, caps, sphere_ids,
+                             np.asarray(self._group, np.int16), pair_law)
 
         link_i = np.asarray([lk[0] for lk in self._links], np.int32)
         link_j = np.asarray([lk[1] for lk in self._links], np.int32)

@@ -28,7 +28,8 @@
 
 A TOML file for ``nscd run``::
 
-    test = "cylinder_triaxial"        # or "box_triaxial", "slope_deposit", "gravity_deposit"
+    test = "cylinder_triaxial"        # or "box_triaxial", "slope_deposit", "gravity_deposit",
+                                       # "pullout_test"
     scale = 0.05                       # 1: the paper's size
     seed = 0
     [parameters]                       # the test function's keyword arguments
@@ -41,7 +42,8 @@ A TOML file for ``nscd run``::
     stiffness = 1.0                    # [N], the elastic laws only
     prestrain = 0.0                    # ε₀, any law but "loose"
     # max_tension = 0.5                # [N], "brittle" only (required there)
-    neighbour_contact = false          # true: linked beads also touch (Scene.add_wire)
+    neighbour_contact = false          # true: linked beads also touch (Scene.add_wire;
+                                       # left out: the test's own, true for pullout_test)
 
 With ``sample = "DEPOSIT.h5"`` in ``[parameters]`` (a history or checkpoint; the triaxial
 tests and slope_deposit) the test starts from that file's last state, its wire with the
@@ -86,7 +88,8 @@ class WireConfig(_Strict):
     max_tension: Optional[float] = Field(None, gt=0, description="[N], brittle only (required)")
     neighbour_contact: bool = Field(False, description="linked beads also touch like two "
                                                        "spheres (false: a slack link's beads "
-                                                       "may overlap)")
+                                                       "may overlap; left out: the test's "
+                                                       "own, true for pullout_test)")
 
     @model_validator(mode="after")
     def _parameters_of_the_law(self):
@@ -111,7 +114,8 @@ def _default_scale(test: str) -> float:
 
 
 class RunConfig(_Strict):
-    test: Literal["cylinder_triaxial", "box_triaxial", "slope_deposit", "gravity_deposit"]
+    test: Literal["cylinder_triaxial", "box_triaxial", "slope_deposit", "gravity_deposit",
+                  "pullout_test"]
     scale: Optional[float] = Field(None, gt=0, le=1.0,
                                    description="sample size (1: the paper's); default: the "
                                                "test function's own")
@@ -233,7 +237,8 @@ def file_config(cfg: RunConfig, params: BaseModel, out: Path, progress=True):
         kw["wire"], law = True, None        # the start state's own wire, if it has one
     if law is not None:
         kw["wire_law"] = law
-        kw["neighbour_contact"] = cfg.wire.neighbour_contact
+        if "neighbour_contact" in cfg.wire.model_fields_set:   # else the test's own default
+            kw["neighbour_contact"] = cfg.wire.neighbour_contact
     scale = _default_scale(cfg.test) if cfg.scale is None else cfg.scale
     return CONFIGS[cfg.test].from_kwargs(scale=scale, seed=cfg.seed, history=str(out / "run.h5"),
                                          progress=progress, **kw)
@@ -731,8 +736,8 @@ def parser() -> argparse.ArgumentParser:
                          "the report's, e.g. slope_w400_seed2)")
     pp.set_defaults(fn=cmd_paper)
     sw = sub.add_parser("sweep", help="run a test over a grid of parameters on Dask")
-    sw.add_argument("test", help="cylinder_triaxial, box_triaxial, slope_deposit or "
-                                 "gravity_deposit")
+    sw.add_argument("test", help="cylinder_triaxial, box_triaxial, slope_deposit, "
+                                 "gravity_deposit or pullout_test")
     sw.add_argument("--grid", action="append", metavar="NAME=V1,V2",
                     help="a parameter and its values (repeat; the cases are the product); "
                          "wire=elastic|rigid|none and k=... [N] choose the wire law")

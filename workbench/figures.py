@@ -34,7 +34,7 @@ _LAW_WORDS = {"RigidRod": "rigid rod", "ElasticRod": "elastic rod", "RigidWire":
 #: Tests in words, by their result's ``name`` (:mod:`engine.experiments`).
 _TEST_WORDS = {"cylinder_triaxial": "cylinder triaxial test",
                "box_triaxial": "box triaxial test", "gravity_deposit": "gravity deposit",
-               "slope_deposit": "slope deposit"}
+               "slope_deposit": "slope deposit", "pullout_test": "wire pull-out test"}
 
 
 def _num(value: float, digits: int = 3) -> str:

@@ -78,7 +78,7 @@ def _states(history, frames):
 
 #: What the refusal of a toroidal map says of a test's sample.
 _SAMPLES = {"box_triaxial": "a box sample", "gravity_deposit": "a deposit",
-            "slope_deposit": "a deposit on a slope"}
+            "slope_deposit": "a deposit on a slope", "pullout_test": "a pull-out box"}
 
 
 class _Run:

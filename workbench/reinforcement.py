@@ -317,7 +317,7 @@ def _pm(st, scale=100.0, fmt="+.1f"):
         return "—"
     if st["n"] < 2:
         return f"{scale * st['mean']:{fmt}} (1 seed)"
-    return f"{scale * st['mean']:{fmt}} ± {scale * st['two_se']:.1f}"
+    return f"{scale * st['mean']:{fmt}} ± {scale * st['two_se']:{fmt.lstrip('+')}}"
 
 
 def markdown_table(summary: dict) -> str:

@@ -1,7 +1,8 @@
 """One configuration schema per test (issue 32 §1): pydantic models with nested parts.
 
 Each paper test has one model, :class:`CylinderConfig`, :class:`BoxConfig`,
-:class:`SlopeConfig` and :class:`DepositConfig`, made of
+:class:`SlopeConfig` and :class:`DepositConfig`, and so has the wire pull-out test
+(:class:`PulloutConfig`, not one of the paper's), made of
 
 * ``scale``, ``seed``, ``neighbour_contact`` and ``wire``: the wire's law, a discriminated
   union (:data:`WireSpec`, keyed by ``law``) of :class:`NoWire`, :class:`DefaultWire`,
@@ -33,13 +34,15 @@ from __future__ import annotations
 import os
 from typing import Annotated, Any, ClassVar, Literal, Optional, Union
 
-from pydantic import ConfigDict, Discriminator, Field, Tag, ValidationError, create_model, model_validator
+from pydantic import (ConfigDict, Discriminator, Field, Tag, ValidationError, create_model,
+                      field_validator, model_validator)
 
 from ..checks import InputError, NumbersOnly, describe
 from ..model import MAX_ITER_LIMIT, solver_conflict
 
 __all__ = ["CONFIGS", "TestConfig", "CylinderConfig", "BoxConfig", "SlopeConfig",
-           "DepositConfig", "Solver", "HotSweeps", "Anderson", "WireSpec", "NoWire",
+           "DepositConfig", "PulloutConfig", "Solver", "HotSweeps", "Anderson", "WireSpec",
+           "NoWire",
            "DefaultWire", "RigidRodSpec", "ElasticRodSpec", "RigidWireSpec", "ElasticWireSpec",
            "BrittleWireSpec", "LooseWireSpec", "wire_spec", "spec_of_law", "flat_model", "config_of",
            "STEP_LIMIT", "SEED_LIMIT", "HOT_SWEEPS"]
@@ -321,6 +324,14 @@ class DepositFriction(CylinderFriction):
     mu_wall: float = Field(0.5, ge=0, le=10, description="friction of the mould")
 
 
+class PulloutFriction(CylinderFriction):
+    mu_wall: float = Field(0.0, ge=0, le=10,
+                           description="friction of the box's walls and top plate on the "
+                                       "sand (0: none, the plate's stress reaches the wire "
+                                       "undiminished)")
+    mu_wire: float = Field(0.3, ge=0, le=10, description="wire-sand and wire-wire friction")
+
+
 class TriaxialPreparation(Strict):
     sample: Optional[str] = Field(None, description=SAMPLE_HELP)
     preparation: Literal["geometric", "paper"] = Field(
@@ -338,6 +349,10 @@ class TriaxialPreparation(Strict):
     helix_pitch: Optional[float] = Field(None, gt=0, le=1.0,
                                          description="[m] the helix's rise per turn "
                                                      "(wire_mode = helix; None: d_max)")
+    helix_inset: Optional[float] = Field(None, ge=0, le=0.1,
+                                         description="[m] the helix's beads' outer edge this far "
+                                                     "inside the cylinder's side (wire_mode = "
+                                                     "helix; None: d_min)")
     remove_beads: Literal["never", "after_deposit", "at_loading"] = Field(
         "never", description="a control: the wire sample's beads taken out after the "
                              "geometric deposit (the sand laid around them, prepared and "
@@ -366,6 +381,12 @@ class SlopePreparation(Strict):
     wire_density: Optional[float] = Field(None, gt=0, le=1e8, description="[m/m³]")
     rubber_radius: float = Field(0.3e-3, gt=0, le=0.1)
     floor_extent: float = Field(5.0, gt=0, le=100)
+
+
+class PulloutPreparation(Strict):
+    bead_radius: Optional[float] = Field(None, gt=0, le=1e-2,
+                                         description="[m] the wire's bead radius r_w (None: "
+                                                     "the paper's cylinder beads, 0.135 mm)")
 
 
 class DepositPreparation(Strict):
@@ -406,6 +427,40 @@ class BoxLoading(TriaxialLoading):
                              description="steps between isotropic-stage checks")
 
 
+class PulloutLoading(Strict):
+    pressure: float = Field(15e3, gt=0, le=1e9,
+                            description="σ_v [Pa], the vertical stress of the top plate")
+    pull_velocity: float = Field(5e-3, gt=0, le=10,
+                                 description="[m/s] of the pulled end along +x (5 mm/s: "
+                                             "inertial number v √(ρ/σ_v) = 2e-3 at 15 kPa)")
+    pull_distance: float = Field(6e-4, gt=0, le=0.1,
+                                 description="[m] the pulled end's travel (0.6 mm: 2.2 "
+                                             "wire diameters, past the peak)")
+    peak_window: float = Field(2.5e-5, ge=0, le=1e-2,
+                               description="[m] F_peak is the largest mean of the pull "
+                                           "force over this much of the pulled end's "
+                                           "travel (0: the largest record)")
+    allow_dynamic: bool = Field(False, description="accept a pull_velocity of inertial "
+                                                   "number v √(ρ/σ_v) > 0.1")
+    wall_mass: Optional[float] = Field(None, gt=0, le=1e6,
+                                       description="[kg] of the top plate (None: 0.2 x the "
+                                                   "sand's mass)")
+    ramp_steps: int = Field(400, ge=0, le=STEP_LIMIT,
+                            description="steps over which the pressure is raised")
+    consolidation_tol: float = Field(0.02, gt=0, lt=1,
+                                     description="the consolidation ends when the top "
+                                                 "plate's stress is within this fraction of "
+                                                 "σ_v ...")
+    ke_fraction: float = Field(1e-3, gt=0, lt=1,
+                               description="... and the sand's kinetic energy at most this "
+                                           "fraction of its peak ...")
+    consolidation_hold: int = Field(5, ge=1, le=STEP_LIMIT,
+                                    description="... for this many checks in a row")
+    consolidation_max_steps: int = Field(4000, ge=1, le=STEP_LIMIT)
+    check_every: int = Field(10, ge=1, le=STEP_LIMIT,
+                             description="steps between consolidation checks")
+
+
 class Settling(Strict):
     """The run to rest of the deposits."""
     steps: int = Field(6000, ge=1, le=STEP_LIMIT)
@@ -438,6 +493,10 @@ class DepositRecording(Recording):
     history: str = "out/gravity_deposit.h5"
     checkpoint_every: int = Field(0, ge=0, le=STEP_LIMIT, description=CHECKPOINT_HELP)
     resume: bool = Field(False, description=RESUME_HELP)
+
+
+class PulloutRecording(Recording):
+    history: str = "out/pullout_test.h5"
 
 
 class SlopeRecording(DepositRecording):
@@ -616,9 +675,44 @@ class DepositConfig(TestConfig):
     recording: DepositRecording = DepositRecording()
 
 
+class PulloutConfig(TestConfig):
+    """:func:`engine.experiments.pullout_test` (a wire pulled out of a box of sand; not
+    one of the paper's tests).  Its wire is one whose links carry tension (not "none" nor
+    "loose"), its scale one whose box is at least 5 mean grain diameters wide
+    (:func:`engine.prep.samples.pullout_box`)."""
+    TEST: ClassVar[str] = "pullout_test"
+    scale: float = Field(0.2, gt=0, le=10.0, description="sample size (1: a 10 x 6 x 6 mm box)")
+    neighbour_contact: bool = Field(True, description="linked beads also touch like two "
+                                                      "spheres (False: a slack link lets its "
+                                                      "beads overlap, and the wire shortens "
+                                                      "as the sand settles)")
+    solver: Solver = Solver()
+    friction: PulloutFriction = PulloutFriction()
+    preparation: PulloutPreparation = PulloutPreparation()
+    loading: PulloutLoading = PulloutLoading()
+    recording: PulloutRecording = PulloutRecording()
+
+    @field_validator("scale")
+    @classmethod
+    def _box_wide_enough(cls, v):
+        from ..prep.samples import pullout_box
+
+        pullout_box(v)          # ValueError "scale = ...: ... use scale >= ..."
+        return v
+
+    @field_validator("wire")
+    @classmethod
+    def _pulled_wire(cls, v):
+        if isinstance(v, (NoWire, LooseWireSpec)):
+            raise ValueError(f"wire = {v.law!r}: the pull-out test pulls on a wire whose "
+                             f"links carry tension (elastic, rigid, elastic_rod, rigid_rod "
+                             f"or brittle)")
+        return v
+
+
 #: The configs by test name.
 CONFIGS: dict[str, type[TestConfig]] = {c.TEST: c for c in (
-    CylinderConfig, BoxConfig, SlopeConfig, DepositConfig)}
+    CylinderConfig, BoxConfig, SlopeConfig, DepositConfig, PulloutConfig)}
 
 #: Keywords of the tests that a run file's ``[parameters]`` does not set: the sample size
 #: and seed (top level), the wire (``[wire]``) and the outputs.

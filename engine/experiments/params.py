@@ -15,24 +15,28 @@ does (it is that call, its config dropped).
 from __future__ import annotations
 
 from .config import (SEED_LIMIT, STEP_LIMIT, BoxConfig, CylinderConfig, DepositConfig,
-                     SlopeConfig, Strict, TestConfig, flat_model)
+                     PulloutConfig, SlopeConfig, Strict, TestConfig, flat_model)
 
 __all__ = ["PARAMS", "STEP_LIMIT", "SEED_LIMIT", "check_args", "SolverParams",
-           "TriaxialParams", "CylinderParams", "BoxParams", "SlopeParams", "DepositParams"]
+           "TriaxialParams", "CylinderParams", "BoxParams", "SlopeParams", "DepositParams",
+           "PulloutParams"]
 
 CylinderParams = flat_model(CylinderConfig)
 BoxParams = flat_model(BoxConfig)
 SlopeParams = flat_model(SlopeConfig)
 DepositParams = flat_model(DepositConfig)
+PulloutParams = flat_model(PulloutConfig)
 #: The base of the flat models (the names of the models these replaced, kept for imports).
 SolverParams = TriaxialParams = Strict
 
 PARAMS: dict[str, type[Strict]] = {"cylinder_triaxial": CylinderParams,
                                    "box_triaxial": BoxParams, "slope_deposit": SlopeParams,
-                                   "gravity_deposit": DepositParams}
+                                   "gravity_deposit": DepositParams,
+                                   "pullout_test": PulloutParams}
 
 _CONFIGS = {"cylinder_triaxial": CylinderConfig, "box_triaxial": BoxConfig,
-            "slope_deposit": SlopeConfig, "gravity_deposit": DepositConfig}
+            "slope_deposit": SlopeConfig, "gravity_deposit": DepositConfig,
+            "pullout_test": PulloutConfig}
 
 
 def check_args(test: str, values: dict) -> TestConfig:

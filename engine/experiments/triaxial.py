@@ -125,7 +125,8 @@ def cylinder_triaxial(scale: float = 0.05, *, sample=None, preparation: str = "g
                       pressure: float = 15e3, wire: bool = True, wire_law=None,
                       neighbour_contact: bool = False, wire_density: float | None = None,
                       wire_mode: str = "isotropic", bead_radius: float | None = None,
-                      helix_pitch: float | None = None, remove_beads: str = "never",
+                      helix_pitch: float | None = None, helix_inset: float | None = None,
+                      remove_beads: str = "never",
                       wire_prestrain: float = 0.0, confinement: str = "free_surface",
                       deposit_steps: int = 6000, axial_strain: float = 0.1,
                       strain_rate: float | None = None, target_I: float = 5e-4,
@@ -159,7 +160,8 @@ def cylinder_triaxial(scale: float = 0.05, *, sample=None, preparation: str = "g
     * ``sample``: None (the test builds :func:`~engine.prep.cylinder_sample` at ``scale``
       with ``seed``, ``wire_density`` [m/m³] (None: the paper's), ``wire_mode``
       ("isotropic", Eq. 16, "orthotropic", Eq. 17, or "helix": the positive control of an
-      encased column, ``helix_pitch`` [m] its rise per turn) and ``bead_radius`` r_w [m]
+      encased column, ``helix_pitch`` [m] its rise per turn, ``helix_inset`` [m] its depth
+      under the surface) and ``bead_radius`` r_w [m]
       (None: the paper's 0.135 mm)); a geometric
       :class:`engine.prep.Sample` in a cylinder; or an end state: a ``(model, state)``
       pair, a result with a history (``gravity_deposit``'s) or a history or checkpoint
@@ -233,14 +235,15 @@ def _prepared(test, shape, builder, a):
     _check_prestrain(test, a["wire_prestrain"], a["neighbour_contact"])
     preparation = check_preparation(a["preparation"])
     given = [n for n, v in (("wire_density", wire_density), ("bead_radius", a["bead_radius"]),
-                            ("helix_pitch", a["helix_pitch"])) if v is not None] \
+                            ("helix_pitch", a["helix_pitch"]),
+                            ("helix_inset", a["helix_inset"])) if v is not None] \
         + (["wire_mode"] if wire_mode != "isotropic" else [])
     if sample is not None and given:
         raise ValueError(f"{test}: {', '.join(given)} build(s) the test's own sample; with "
                          f"sample= given, build the sample with them "
                          f"(engine.prep.{shape.__name__.lower()}_sample)")
     def build():
-        helix = {} if a["helix_pitch"] is None else dict(helix_pitch=a["helix_pitch"])
+        helix = {k: a[k] for k in ("helix_pitch", "helix_inset") if a[k] is not None}
         return builder(a["scale"], wire=wire, wire_density=wire_density, wire_mode=wire_mode,
                        bead_radius=a["bead_radius"], seed=a["seed"], **helix)
 
@@ -439,7 +442,8 @@ def box_triaxial(scale: float = 0.05, *, sample=None, preparation: str = "geomet
                  pressure: float = 15e3, wire: bool = True, wire_law=None,
                  neighbour_contact: bool = False, bead_radius: float | None = None,
                  wire_density: float | None = None, wire_mode: str = "isotropic",
-                 helix_pitch: float | None = None, remove_beads: str = "never",
+                 helix_pitch: float | None = None, helix_inset: float | None = None,
+                 remove_beads: str = "never",
                  wire_prestrain: float = 0.0, deposit_steps: int = 6000,
                  axial_strain: float = 0.05, strain_rate: float | None = None,
                  target_I: float = 5e-4, allow_dynamic: bool = False, dt: float = 5e-5,
@@ -703,7 +707,8 @@ def _params(rig, cfg, deposit) -> dict:
     return dict(scale=cfg.scale, sample=st.source, preparation=cfg.preparation,
                 wire_density=st.wire_density,
                 wire_mode=cfg.wire_mode if cfg.sample is None else None,
-                helix_pitch=cfg.helix_pitch, remove_beads=cfg.remove_beads,
+                helix_pitch=cfg.helix_pitch, helix_inset=cfg.helix_inset,
+                remove_beads=cfg.remove_beads,
                 bead_radius=st.bead_radius if wire else None,
                 wire_prestrain=cfg.wire_prestrain if wire else 0.0,
                 deposit_steps=cfg.deposit_steps if deposit is not None else None,

@@ -38,6 +38,7 @@ from .deposit import DepositError, geometric
 from .wire import KM_PER_M3, helix, random_walk
 
 __all__ = ["Sample", "paper_sample", "cylinder_sample", "box_sample", "slope_sample", "PAPER",
+           "PULLOUT", "pullout_sample", "pullout_box", "pullout_min_scale",
            "WIRE_MODES"]
 
 PAPER = {
@@ -113,6 +114,27 @@ class Sample:
                 f"deposit {i.get('deposit_time', 0):.2f} s)")
 
 
+def _deposit(container, radii, obstacles, seed, deposit_height_factor=1.5):
+    """(centres, radii) of the geometric deposit of ``radii`` in ``container`` made
+    ``deposit_height_factor`` times taller, around ``obstacles`` (:func:`geometric`)."""
+    # deposit in a taller mould: the sand's height is what it is, reported in info.  A
+    # small sample can leave its last grains no pocket below the mould's top (seen:
+    # box_sample(0.05, seed=2), 324 of 325 grains placed): the mould then grows by half.
+    for attempt in range(4):
+        factor = deposit_height_factor * 1.5 ** attempt
+        if isinstance(container, Cylinder):
+            mould = Cylinder(container.radius, container.height * factor, container.center)
+        else:
+            lo, hi = np.array(container.lo), np.array(container.hi)
+            hi[2] = lo[2] + (hi[2] - lo[2]) * factor
+            mould = Box(lo, hi)
+        try:
+            return geometric(radii, mould, obstacles=obstacles, seed=seed)
+        except DepositError:
+            if attempt == 3:
+                raise
+
+
 def _build(name, container, wire_region, radii, *, wire, wire_density, bead_radius, seed,
            wire_mode="isotropic", helix_pitch=None, helix_inset=0.0, deposit_height_factor=1.5):
     bead_radius = float(bead_radius)
@@ -134,23 +156,7 @@ def _build(name, container, wire_region, radii, *, wire, wire_density, bead_radi
     if chains:
         b = np.vstack(chains)
         obstacles = (b, np.full(b.shape[0], bead_radius))
-    # deposit in a taller mould: the sand's height is what it is, reported in info.  A
-    # small sample can leave its last grains no pocket below the mould's top (seen:
-    # box_sample(0.05, seed=2), 324 of 325 grains placed): the mould then grows by half.
-    for attempt in range(4):
-        factor = deposit_height_factor * 1.5 ** attempt
-        if isinstance(container, Cylinder):
-            mould = Cylinder(container.radius, container.height * factor, container.center)
-        else:
-            lo, hi = np.array(container.lo), np.array(container.hi)
-            hi[2] = lo[2] + (hi[2] - lo[2]) * factor
-            mould = Box(lo, hi)
-        try:
-            centers, r = geometric(radii, mould, obstacles=obstacles, seed=seed + 1)
-            break
-        except DepositError:
-            if attempt == 3:
-                raise
+    centers, r = _deposit(container, radii, obstacles, seed + 1, deposit_height_factor)
     t2 = time.perf_counter()
     if chains and wire_mode == "helix":
         top = float((centers[:, 2] + r).max())
@@ -175,7 +181,7 @@ WIRE_MODES = ("isotropic", "orthotropic", "helix")
 
 
 def _paper(name, container, wire_region, scale, *, wire, wire_density, bead_radius, seed,
-           wire_mode="isotropic", helix_pitch=None):
+           wire_mode="isotropic", helix_pitch=None, helix_inset=None):
     """The paper's grains for ``name`` at ``scale`` in ``container``, and the wire (walked by
     Eq. 16, ``wire_mode="isotropic"``, or Eq. 17, ``"orthotropic"``: horizontal layers with a
     rise angle of 5°, :func:`engine.prep.random_walk`; or the cylinder's ``"helix"``, one
@@ -190,9 +196,14 @@ def _paper(name, container, wire_region, scale, *, wire, wire_density, bead_radi
     if wire_mode == "helix" and wire_density is not None:
         raise ValueError(f"wire_density must be None with wire_mode = 'helix' (the helix's "
                          f"length is set by its helix_pitch), got {wire_density!r}")
-    if helix_pitch is not None and wire_mode != "helix":
-        raise ValueError(f"helix_pitch must be None with wire_mode = {wire_mode!r} (it is the "
-                         f"helix's pitch [m]), got {helix_pitch!r}")
+    for key, v in (("helix_pitch", helix_pitch), ("helix_inset", helix_inset)):
+        if v is not None and wire_mode != "helix":
+            raise ValueError(f"{key} must be None with wire_mode = {wire_mode!r} (it is the "
+                             f"helix's {key[6:]} [m]), got {v!r}")
+    if helix_inset is not None and (isinstance(helix_inset, bool) or not isinstance(
+            helix_inset, (int, float, np.number)) or not (math.isfinite(helix_inset)
+                                                         and helix_inset >= 0)):
+        raise ValueError(f"helix_inset must be a number >= 0 [m], got {helix_inset!r}")
     if isinstance(seed, bool) or not isinstance(seed, (int, np.integer)) or seed < 0:
         raise ValueError(f"seed must be an integer >= 0, got {seed!r}")
     for key, v in (("wire_density", wire_density), ("bead_radius", bead_radius),
@@ -212,7 +223,8 @@ def _paper(name, container, wire_region, scale, *, wire, wire_density, bead_radi
     return _build(name, container, wire_region, radii, wire=wire,
                   wire_density=p["wire_density"] if wire_density is None else wire_density,
                   bead_radius=p["bead_radius"] if bead_radius is None else bead_radius, seed=seed,
-                  wire_mode=wire_mode, helix_inset=p["d_min"],
+                  wire_mode=wire_mode,
+                  helix_inset=p["d_min"] if helix_inset is None else float(helix_inset),
                   helix_pitch=p["d_max"] if helix_pitch is None else helix_pitch)
 
 
@@ -225,17 +237,21 @@ def _scale(scale):
 
 def cylinder_sample(scale: float = 1.0, *, wire: bool = True, wire_density: float | None = None,
                     bead_radius: float | None = None, seed: int = 0, wire_mode: str = "isotropic",
-                    helix_pitch: float | None = None) -> Sample:
+                    helix_pitch: float | None = None,
+                    helix_inset: float | None = None) -> Sample:
     """The cylinder triaxial sample (§3.3): Ø9 mm × 20 mm, 6 200 grains Ø0.3–0.8 mm and a wire
     at 250 km·m⁻³ (about 1 100 beads) at scale 1.  ``wire=False``: sand only.
 
     ``wire_mode="helix"`` (not in the paper): the wire is a helix about the axis, the beads'
-    outer edge one small-grain diameter d_min = 0.3 mm inside the mould's side, rising
+    outer edge ``helix_inset`` [m] inside the mould's side (None: one small-grain diameter
+    d_min = 0.3 mm, a layer the geometric deposit leaves nearly empty, so the beads are the
+    sample's surface; d_max = 0.8 mm lays a layer of sand outside the helix), rising
     ``helix_pitch`` [m] per turn: a sand column encased by the wire, a positive control of
     the wire–sand coupling.  The default pitch s is d_max = 0.8 mm: the clear gap between
     turns is then s − 2 r_w = 0.8 − 0.27 = 0.53 mm, so the largest grains cannot pass between
     them (grains under 0.53 mm can).  The helix's length, hence the wire density, follows
-    from the pitch (at the default about 500 km·m⁻³ at scale 1, 920 at scale 0.1), so
+    from the pitch and the sand's height (at the defaults 511 km·m⁻³ of the mould at scale
+    1, 1 361 at scale 0.1), so
     ``wire_density`` must be None.  The sand is the same as with the other modes for one
     ``seed``."""
     p = PAPER["cylinder"]
@@ -244,12 +260,12 @@ def cylinder_sample(scale: float = 1.0, *, wire: bool = True, wire_density: floa
     c = Cylinder(0.5 * p["diameter"] * L, p["height"] * L)
     return _paper("cylinder", c, c, s, wire=wire, wire_density=wire_density,
                   bead_radius=bead_radius, seed=seed, wire_mode=wire_mode,
-                  helix_pitch=helix_pitch)
+                  helix_pitch=helix_pitch, helix_inset=helix_inset)
 
 
 def box_sample(scale: float = 1.0, *, wire: bool = True, wire_density: float | None = None,
                bead_radius: float | None = None, seed: int = 0, wire_mode: str = "isotropic",
-               helix_pitch: float | None = None) -> Sample:
+               helix_pitch: float | None = None, helix_inset: float | None = None) -> Sample:
     """The box triaxial sample (§3.2): a 16 mm cube, 6 500 grains and a wire at 200 km·m⁻³
     (8 000 particles in all at scale 1).  ``bead_radius`` r_w (Fig. 12: r_min, r_min/3,
     r_min/4; default r_min).  ``wire_mode="helix"`` and ``helix_pitch`` are the cylinder's:
@@ -259,12 +275,12 @@ def box_sample(scale: float = 1.0, *, wire: bool = True, wire_density: float | N
     c = Box((0.0, 0.0, 0.0), (a, a, a))
     return _paper("box", c, c, s, wire=wire, wire_density=wire_density,
                   bead_radius=bead_radius, seed=seed, wire_mode=wire_mode,
-                  helix_pitch=helix_pitch)
+                  helix_pitch=helix_pitch, helix_inset=helix_inset)
 
 
 def slope_sample(scale: float = 1.0, *, wire: bool = True, wire_density: float | None = None,
                  bead_radius: float | None = None, seed: int = 0, wire_mode: str = "isotropic",
-                 helix_pitch: float | None = None) -> Sample:
+                 helix_pitch: float | None = None, helix_inset: float | None = None) -> Sample:
     """The slope-deposit sample (§3.1): Ø12 mm × 14 mm, 26 000 grains Ø0.2–0.6 mm and a wire
     at 400 km·m⁻³ (about 2 900 beads Ø0.2 mm), with no wire in an outer layer 2 d_max thick
     (at most a quarter of the radius).  ``wire_density=800e3`` gives the paper's TexSol(2).
@@ -277,7 +293,93 @@ def slope_sample(scale: float = 1.0, *, wire: bool = True, wire_density: float |
     inner = Cylinder(c.radius - layer, c.height)
     return _paper("slope", c, inner, s, wire=wire, wire_density=wire_density,
                   bead_radius=bead_radius, seed=seed, wire_mode=wire_mode,
-                  helix_pitch=helix_pitch)
+                  helix_pitch=helix_pitch, helix_inset=helix_inset)
+
+
+#: The pull-out sample (:func:`pullout_sample`, not one of the paper's) at scale 1: a box
+#: ``length`` along the wire (x) × ``width`` (y) × ``height`` (z) [m], filled with the
+#: cylinder's sand (Ø0.3–0.8 mm, ``PAPER["cylinder"]``) at ``solid_fraction`` of its volume
+#: less the beads'; no side narrower than ``min_diameters`` mean grain diameters.
+PULLOUT = dict(length=10e-3, width=6e-3, height=6e-3, solid_fraction=0.6, min_diameters=5.0)
+
+
+def pullout_min_scale() -> float:
+    """The smallest scale of the pull-out box: its narrowest side (width and height, 6 mm
+    × scale^(1/3)) is :data:`PULLOUT` ``min_diameters`` mean grain diameters (about 0.096)."""
+    p, q = PULLOUT, PAPER["cylinder"]
+    d_mean = 0.5 * (q["d_min"] + q["d_max"])
+    return (p["min_diameters"] * d_mean / min(p["width"], p["height"])) ** 3
+
+
+def pullout_box(scale: float = 1.0) -> Box:
+    """The pull-out box at ``scale`` [m]: lo at the origin, sides :data:`PULLOUT` ×
+    scale^(1/3); a scale below :func:`pullout_min_scale` is refused on one line."""
+    p, q = PULLOUT, PAPER["cylinder"]
+    s = _scale(scale)
+    L = s ** (1.0 / 3.0)
+    side = min(p["width"], p["height"]) * L
+    d_mean = 0.5 * (q["d_min"] + q["d_max"])
+    if side < p["min_diameters"] * d_mean * (1 - 1e-12):
+        least = math.ceil(pullout_min_scale() * 1e4) / 1e4
+        raise ValueError(f"scale = {scale!r}: the pull-out box would be {side * 1e3:.2f} mm "
+                         f"wide and high, {side / d_mean:.1f} mean grain diameters (at least "
+                         f"{p['min_diameters']:g}): use scale >= {least:g}")
+    return Box((0.0, 0.0, 0.0), (p["length"] * L, p["width"] * L, p["height"] * L))
+
+
+def pullout_sample(scale: float = 1.0, *, bead_radius: float | None = None,
+                   seed: int = 0) -> Sample:
+    """The pull-out test's sample (not in the paper): a straight wire along x at
+    mid-height through a box of sand, leaving it through the box's +x face.
+
+    The box is :func:`pullout_box` (10 mm × 6 mm × 6 mm at ``scale`` 1, lengths by
+    scale^(1/3)).  The wire's beads (radius ``bead_radius`` r_w [m]; None: the cylinder's
+    0.135 mm) are 2 r_w + g_w apart (g_w = 0.2 r_w, as in the paper samples), on the line
+    y = W/2, z = H/2: the last one is just outside the +x face (centre at x = L_x + 1.1 r_w;
+    the gap between it and its neighbour lies on the face), the first one leaves one
+    largest-grain diameter (d_max = 0.8 mm) between its back and the −x face.  The sand
+    (the cylinder's: diameters uniform in 0.3–0.8 mm) fills a solid fraction 0.6 of the box
+    less the inner beads, laid by the geometric deposit around those beads in a mould 1.5
+    times taller.  ``info`` has ``embedded_length`` (from the first bead's back to the +x
+    face [m]), ``exit_x`` (the face's x [m]) and ``sand_top`` [m].
+    """
+    q = PAPER["cylinder"]
+    box = pullout_box(scale)
+    lo, hi = box.bounds()
+    if isinstance(seed, bool) or not isinstance(seed, (int, np.integer)) or seed < 0:
+        raise ValueError(f"seed must be an integer >= 0, got {seed!r}")
+    rw = q["bead_radius"] if bead_radius is None else bead_radius
+    if isinstance(rw, bool) or not isinstance(rw, (int, float, np.number)) \
+            or not (math.isfinite(rw) and rw > 0):
+        raise ValueError(f"bead_radius must be a number > 0 [m], got {bead_radius!r}")
+    rw = float(rw)
+    side = float(min(hi[1] - lo[1], hi[2] - lo[2]))
+    if 2 * rw > side / PULLOUT["min_diameters"]:
+        raise ValueError(f"bead_radius = {rw!r}: the wire must be at most a fifth of the box's "
+                         f"width ({side:.4g} m): use bead_radius <= {side / 10:.3g} m")
+    gap = 0.2 * rw
+    pitch = 2 * rw + gap
+    first = lo[0] + q["d_max"] + rw                     # the first bead's centre, at least
+    n_in = int(math.floor((hi[0] - 0.5 * pitch - first) / pitch)) + 1
+    if n_in < 2:
+        raise ValueError(f"bead_radius = {rw!r}: fewer than 2 beads fit in the box's "
+                         f"{(hi[0] - lo[0]) * 1e3:.2f} mm length")
+    x = hi[0] + 0.5 * pitch - pitch * np.arange(n_in, -1, -1)     # the last one outside
+    chain = np.column_stack([x, np.full(x.size, 0.5 * (lo[1] + hi[1])),
+                             np.full(x.size, 0.5 * (lo[2] + hi[2]))])
+    inner = chain[:-1]
+    solid = PULLOUT["solid_fraction"] * (box.volume - inner.shape[0] * 4 / 3 * math.pi * rw ** 3)
+    radii = granulometry.uniform(q["d_min"], q["d_max"], volume=solid, seed=seed + 2)
+    t0 = time.perf_counter()
+    centers, r = _deposit(box, radii, (inner, np.full(inner.shape[0], rw)), seed + 1)
+    s = Sample(name="pullout", container=box, sand_centers=centers, sand_radii=r,
+               wire=[chain], bead_radius=rw, gap=gap,
+               wire_density=wire_length([inner]) / box.volume)
+    s.info.update(deposit_time=time.perf_counter() - t0, n_sand=int(r.size),
+                  n_beads=s.n_beads, n_wires=1, exit_x=float(hi[0]),
+                  embedded_length=float(hi[0] - (inner[0, 0] - rw)),
+                  sand_top=float((centers[:, 2] + r).max() - lo[2]))
+    return s
 
 
 _BUILDERS = {"cylinder": cylinder_sample, "box": box_sample, "slope": slope_sample}

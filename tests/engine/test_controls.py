@@ -156,3 +156,38 @@ def test_bad_controls_are_refused_in_one_line():
         cylinder_triaxial(0.05, wire=False, remove_beads="at_loading", **CYL)
     with pytest.raises(ValueError, match="remove_beads"):
         cylinder_triaxial(0.05, remove_beads="sometimes", **CYL)
+
+
+@pytest.fixture(scope="module")
+def encased(tmp_path_factory):
+    """The positive control at scale 0.1, seed 0: a column encased by a rigid helix (one
+    d_min under the surface, pitch d_max) and its loose twin (the same packing and beads,
+    no link force), loaded to 5 % (bench/control_helix.py's pair)."""
+    import sys
+    from pathlib import Path
+
+    sys.path.insert(0, str(Path(__file__).resolve().parents[2] / "bench"))
+    from control_helix import one_pair
+
+    return one_pair(0.1, 0, laws.RigidWire(), 0.05, None, 15e3,
+                    str(tmp_path_factory.mktemp("helix")))
+
+
+def test_an_encased_column_is_stronger_than_its_loose_twin(encased):
+    """The helix's hoop tension confines the column: the encased column carries more q
+    than its loose twin at the end and over the second half of the loading.  The twins
+    start on membrane radii within 5 %: the helix is the sample's surface, and its loose
+    beads settle inward in the isotropic stage (seen: 1.571 against 1.523 mm)."""
+    r = encased
+    assert r["start_radius"][1] == pytest.approx(r["start_radius"][0], rel=0.05)
+    assert r["tension"] > 0 and r["window"]["dq"] > 0 and r["dq"] > 0
+
+
+@pytest.mark.xfail(strict=True, reason=(
+    "the closed form is not met: measured Δq over the second half of the loading, at scale "
+    "0.1 seed 0, is 1.7-1.9 times K_p T/(R s) (and 0.4-0.7 times at scale 0.3 with the "
+    "helix one d_max deep); docs/reinforcement.md, 'The positive control'"))
+def test_an_encased_column_gains_what_its_hoop_tension_predicts(encased):
+    """Δσ₃ = T/(R s), Δq ≈ K_p Δσ₃ (K_p = σ₁/σ₃ of the loose column), within ±30 %, from
+    the measured T and R over the second half of the loading."""
+    assert 0.7 <= encased["window_ratio"]["ring"] <= 1.3, encased["window_ratio"]

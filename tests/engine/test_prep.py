@@ -221,6 +221,12 @@ def test_cylinder_sample_with_helix():
     rr = np.hypot(s.sand_centers[:, 0], s.sand_centers[:, 1])
     assert np.all(rr + s.sand_radii <= s.container.radius * (1 + 1e-12))
     assert s.wire_density == pytest.approx(wire_length(s.wire) / s.container.volume, rel=1e-12)
+    # a deeper helix (one d_max under the surface): a layer of sand outside it
+    s3 = cylinder_sample(0.1, wire_mode="helix", helix_inset=p["d_max"], seed=0)
+    rh = np.hypot(s3.wire[0][:, 0], s3.wire[0][:, 1])
+    np.testing.assert_allclose(rh, s3.container.radius - p["d_max"] - s3.bead_radius, rtol=1e-12)
+    rr3 = np.hypot(s3.sand_centers[:, 0], s3.sand_centers[:, 1])
+    assert np.mean(rr3 > rh[0] + s3.bead_radius) > 0.2
     # a coarser pitch, through paper_sample: fewer beads
     s2 = paper_sample("cylinder", 0.1, wire_mode="helix", helix_pitch=1.2e-3, seed=0)
     assert 0 < s2.n_beads < s.n_beads
@@ -235,6 +241,8 @@ def test_cylinder_sample_with_helix():
     (box_sample, dict(wire_mode="helix"), "wire_mode"),
     (slope_sample, dict(wire_mode="helix"), "wire_mode"),
     (box_sample, dict(helix_pitch=1e-3), "helix_pitch"),
+    (cylinder_sample, dict(helix_inset=1e-3), "helix_inset"),
+    (cylinder_sample, dict(wire_mode="helix", helix_inset=-1e-3), "helix_inset"),
 ])
 def test_helix_sample_refusals(build, kw, field):
     with pytest.raises(ValueError, match=field) as e:

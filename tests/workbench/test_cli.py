@@ -157,7 +157,7 @@ def test_run_help_lists_every_parameter_with_its_range(capsys):
     out = capsys.readouterr().out
     for line in ("scale: default None; a number in (0, 1] — sample size (1: the paper's); "
                  "default: the test function's own (cylinder_triaxial 0.05, box_triaxial "
-                 "0.05, slope_deposit 0.02, gravity_deposit 0.05)",
+                 "0.05, slope_deposit 0.02, gravity_deposit 0.05, pullout_test 0.2)",
                  "law: default 'elastic'; one of 'elastic', 'rigid', 'elastic_rod', 'rigid_rod', "
                  "'brittle', 'loose', 'none' — elastic: ElasticWire",
                  "[parameters] of slope_deposit:", "theta: default 0.5; a number in [0.5, 1]",

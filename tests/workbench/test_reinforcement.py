@@ -63,3 +63,38 @@ def test_q_at_a_strain_is_read_within_the_last_step_and_nan_beyond():
     assert out["q_2"] == pytest.approx(1e4 * 1.02, rel=1e-12)
     short = _q_at(eps[:6], q[:6], zero[:6], zero[:6])  # stopped one step short of 5 %
     assert math.isnan(short["q_10"]) and short["q_5"] == pytest.approx(q[5], rel=1e-12)
+
+
+def test_the_chain_pairs_each_step_with_the_one_before_by_seed():
+    """Each step of the chain against the one before it, paired by seed: the Δq/q and its
+    two standard errors are those of the per-seed ratios; the cases of one seed share
+    everything but their step's change; a seed one step lacks is left out of its pairs."""
+    from workbench.reinforcement import CHAIN, SIDE, chain_cases, summarize_chain
+
+    todo = chain_cases([0, 1, 2], scale=0.3, pressures=(15e3, 2e3))
+    assert len(todo) == 3 * 2 * (len(CHAIN) + len(SIDE))
+    assert len({c["name"] for c in todo}) == len(todo)
+    by = {(c["seed"], c["pressure"], c["step"]): c for c in todo}
+    assert by[(0, 15e3, "matched sand")]["remove_beads"] == "after_deposit"
+    assert by[(0, 15e3, "loose beads")]["wire"] == "loose"
+    assert by[(0, 15e3, "sand")]["wire"] == "none"
+    assert by[(1, 2e3, "TexSol")]["wire"] == "elastic" and by[(1, 2e3, "TexSol")]["k"] == 1.0
+    q = {"sand": [20e3, 21e3, 22e3], "matched sand": [19e3, 20e3, 21.5e3],
+         "loose beads": [19e3, 19.5e3, 21e3], "TexSol": [20e3, 21e3, None]}
+    rows = []
+    for step, qs in q.items():
+        for seed, v in enumerate(qs):
+            if v is None:
+                continue
+            p = by[(seed, 15e3, step)]
+            rows.append((p, {**{f"q_{t}": v for t in ("2", "5", "10", "peak")},
+                             "solid_fraction": 0.65}))
+    out = summarize_chain(rows)["paper preparation, p = 15 kPa"]
+    e = out["pairs"]["matched sand / sand"]["dq_5"]
+    r = np.array(q["matched sand"]) / np.array(q["sand"]) - 1
+    assert e["n"] == 3 and e["mean"] == pytest.approx(r.mean(), rel=1e-12)
+    assert e["two_se"] == pytest.approx(2 * r.std(ddof=1) / math.sqrt(3), rel=1e-12)
+    t = out["pairs"]["TexSol / loose beads"]
+    assert t["seeds"] == [0, 1] and t["dq_peak"]["per_seed"] == pytest.approx(
+        [20 / 19 - 1, 21 / 19.5 - 1], rel=1e-12)
+    assert "packing without beads / sand" not in out["pairs"]      # no such run

@@ -117,11 +117,11 @@ def check_paper_cases(name, cases, fixed) -> None:
             raise ValueError(f"{name}, case {c}: {str(e).removeprefix(name + ': ')}") from None
 
 
-#: The paper's tests by name, as campaign experiments (JSON-able parameters in, scalars
+#: The paper's tests (and the wire pull-out test) by name, as campaign experiments (JSON-able parameters in, scalars
 #: out); read-only.
 EXPERIMENTS: Mapping[str, Callable] = MappingProxyType(
     {n: _paper_test(n) for n in ("cylinder_triaxial", "box_triaxial", "slope_deposit",
-                                 "gravity_deposit")})
+                                 "gravity_deposit", "pullout_test")})
 
 
 def resolve(experiment) -> Callable:

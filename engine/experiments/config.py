@@ -362,6 +362,9 @@ class TriaxialPreparation(Strict):
                                description="most steps of the paper preparation's deposit")
     wire_prestrain: float = Field(0.0, ge=0, le=1, description=(
         "ε₀ set on every link at the start of the loading: L = g/(1+ε₀)"))
+    wire_taut_at_loading: bool = Field(False, description=(
+        "every link's reference length set to its length at the start of the loading "
+        "(a slack wire made just taut; wire_prestrain > 0 does this and more)"))
 
 
 class CylinderPreparation(TriaxialPreparation):

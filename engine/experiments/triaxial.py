@@ -127,7 +127,8 @@ def cylinder_triaxial(scale: float = 0.05, *, sample=None, preparation: str = "g
                       wire_mode: str = "isotropic", bead_radius: float | None = None,
                       helix_pitch: float | None = None, helix_inset: float | None = None,
                       remove_beads: str = "never",
-                      wire_prestrain: float = 0.0, confinement: str = "free_surface",
+                      wire_prestrain: float = 0.0, wire_taut_at_loading: bool = False,
+                      confinement: str = "free_surface",
                       deposit_steps: int = 6000, axial_strain: float = 0.1,
                       strain_rate: float | None = None, target_I: float = 5e-4,
                       allow_dynamic: bool = False, dt: float = 5e-5, theta: float = 0.5,
@@ -179,6 +180,8 @@ def cylinder_triaxial(scale: float = 0.05, *, sample=None, preparation: str = "g
       of the loading (:func:`~engine.experiments.start.remove_group`: they stay in the
       files, fixed, touching nothing).  The beads without their links' force are
       ``wire_law=engine.laws.LooseWire()``.
+    * ``wire_taut_at_loading``: at the start of the loading every link's reference length
+      becomes its length then (a wire the preparation left slack, made just taut).
     * ``wire_prestrain`` ε₀: at the start of the loading every link's reference length
       becomes g/(1+ε₀), g its length then, so the preparation cannot relax it.
     * ``confinement``: "free_surface" (§3.3, :class:`engine.drivers.Confinement`) or
@@ -444,7 +447,8 @@ def box_triaxial(scale: float = 0.05, *, sample=None, preparation: str = "geomet
                  wire_density: float | None = None, wire_mode: str = "isotropic",
                  helix_pitch: float | None = None, helix_inset: float | None = None,
                  remove_beads: str = "never",
-                 wire_prestrain: float = 0.0, deposit_steps: int = 6000,
+                 wire_prestrain: float = 0.0, wire_taut_at_loading: bool = False,
+                 deposit_steps: int = 6000,
                  axial_strain: float = 0.05, strain_rate: float | None = None,
                  target_I: float = 5e-4, allow_dynamic: bool = False, dt: float = 5e-5,
                  theta: float = 0.5, tol: float = 3e-4, max_iter: int = 1000,
@@ -688,7 +692,7 @@ def _loading(stages, rig, cfg) -> None:
     rig.ref = state.position.copy()
     rig.preload = _loading_start(rig, volume)
     model = rig.model
-    if rig.st.has_wire and cfg.wire_prestrain:
+    if rig.st.has_wire and not rig.removed and (cfg.wire_prestrain or cfg.wire_taut_at_loading):
         model = _prestrained(model, state, cfg.wire_prestrain)
     rig.model = stages.model = model.with_drive(rig.top, velocity=(0.0, 0.0, -cfg.rate * rig.H0))
     rig.n_load = int(math.ceil(cfg.eps_max / (cfg.rate * cfg.dt)))
@@ -711,6 +715,7 @@ def _params(rig, cfg, deposit) -> dict:
                 remove_beads=cfg.remove_beads,
                 bead_radius=st.bead_radius if wire else None,
                 wire_prestrain=cfg.wire_prestrain if wire else 0.0,
+                wire_taut_at_loading=bool(wire and cfg.wire_taut_at_loading),
                 deposit_steps=cfg.deposit_steps if deposit is not None else None,
                 pressure=cfg.p, wire=wire, wire_law=repr(cfg.law),
                 neighbour_contact=bool(wire and cfg.neighbour_contact),

@@ -191,3 +191,28 @@ def test_an_encased_column_gains_what_its_hoop_tension_predicts(encased):
     """Δσ₃ = T/(R s), Δq ≈ K_p Δσ₃ (K_p = σ₁/σ₃ of the loose column), within ±30 %, from
     the measured T and R over the second half of the loading."""
     assert 0.7 <= encased["window_ratio"]["ring"] <= 1.3, encased["window_ratio"]
+
+
+def test_a_wire_made_taut_at_the_loading_does_not_lengthen(tmp_path):
+    """``wire_taut_at_loading``: every link's reference length becomes its length at the
+    start of the loading, so a rigid wire's links can only shorten from there (g <= L,
+    Eq. 12): over 1 % of axial strain no link lengthens by more than 5 % of the bead spacing
+    2 r_w + g_w (the velocity-level constraint at tol 3e-4 drifts by about 10 µm over these
+    110 steps); without the reset the slack links of the same run lengthen by more than
+    20 % of it."""
+    def stretch(taut):
+        r = cylinder_triaxial(0.05, wire_law=laws.RigidWire(), wire_taut_at_loading=taut,
+                              axial_strain=0.01, frames=10, history=str(tmp_path / f"{taut}.h5"),
+                              progress=False)
+        assert r.params["wire_taut_at_loading"] is taut
+        m = io.load_model(r.history)
+        steps, _ = io.frame_index(r.history)
+        k0 = int(np.flatnonzero(steps == r.step[0])[0])       # the loading's start
+        g = np.array([np.linalg.norm(f["position"][m.link_i] - f["position"][m.link_j], axis=1)
+                      for f in io.frame_arrays(r.history, ["position"],
+                                               frames=range(k0, len(steps)))])
+        spacing = 2.2 * m.body_radius[m.link_i[0]]
+        return float((g[1:] - g[0]).max() / spacing)
+
+    assert stretch(True) < 0.05
+    assert stretch(False) > 0.2

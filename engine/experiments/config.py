@@ -334,9 +334,12 @@ class PulloutFriction(CylinderFriction):
 
 class TriaxialPreparation(Strict):
     sample: Optional[str] = Field(None, description=SAMPLE_HELP)
-    preparation: Literal["geometric", "paper"] = Field(
+    preparation: Literal["geometric", "paper", "layered"] = Field(
         "geometric", description="geometric: the sample as built; paper: relaxed under "
-                                 "gravity in its mould first (§2.4), then confined")
+                                 "gravity in its mould first (§2.4), then confined; "
+                                 "layered: the sand laid in layers, each covering the wire "
+                                 "walked on the layer below (as the TexSol machine lays "
+                                 "them, §1.1), then as paper")
     wire_density: Optional[float] = Field(None, gt=0, le=1e8,
                                           description="[m/m³] (None: the paper's)")
     bead_radius: Optional[float] = Field(None, gt=0, le=1e-2,

@@ -20,7 +20,12 @@ Preparations (``preparation=`` of the triaxial tests):
     the sample and to obtain the force network" in its mould
     (:func:`engine.experiments.gravity_deposit`, its history beside the test's as
     ``<history>.deposit.h5``), then the mould removed and the test's own confinement
-    (§3.3's pressurization) from that end state.
+    (§3.3's pressurization) from that end state;
+``"layered"``
+    the paper preparation of a sample built as the TexSol machine lays it (§1.1): the sand
+    in layers, the wire walked on each layer's free surface and covered by the next
+    (:func:`engine.prep.cylinder_sample` with ``build="layered"``), then the same deposit
+    under gravity; with no wire, the sand laid in the same layers.
 """
 from __future__ import annotations
 
@@ -46,7 +51,7 @@ __all__ = ["PREPARATIONS", "REMOVE_BEADS", "Start", "start_of", "state_of", "rem
 REMOVE_BEADS = ("never", "after_deposit", "at_loading")
 
 #: The preparations of the triaxial tests (module docstring).
-PREPARATIONS = ("geometric", "paper")
+PREPARATIONS = ("geometric", "paper", "layered")
 
 #: Relative spread of the particles' densities within a group that still counts as one
 #: density (m / (4/3 π r³) recomputed from a stored mass differs in the last bits).

@@ -245,10 +245,17 @@ def _prepared(test, shape, builder, a):
         raise ValueError(f"{test}: {', '.join(given)} build(s) the test's own sample; with "
                          f"sample= given, build the sample with them "
                          f"(engine.prep.{shape.__name__.lower()}_sample)")
+    if sample is not None and preparation == "layered":
+        raise ValueError(f"{test}: preparation = 'layered' builds the test's own sample in "
+                         f"layers; with sample= given, build it with engine.prep."
+                         f"{shape.__name__.lower()}_sample(build='layered') and use "
+                         f"preparation='paper'")
+
     def build():
         helix = {k: a[k] for k in ("helix_pitch", "helix_inset") if a[k] is not None}
+        layered = dict(build="layered") if preparation == "layered" else {}
         return builder(a["scale"], wire=wire, wire_density=wire_density, wire_mode=wire_mode,
-                       bead_radius=a["bead_radius"], seed=a["seed"], **helix)
+                       bead_radius=a["bead_radius"], seed=a["seed"], **helix, **layered)
 
     st = start_of(test, shape, sample, build, wire=wire, wire_law=a["wire_law"])
     if remove == "after_deposit":

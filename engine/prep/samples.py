@@ -19,7 +19,9 @@ the slope's wire density is counted over the whole sample although the wire stay
 outer layer.  The wire is built first by the isotropic walk (Eq. 16), the orthotropic walk
 (Eq. 17) or, for the cylinder only, as a helix (``wire_mode="helix"``, not in the paper: a
 sand column encased by the wire, :func:`engine.prep.wire.helix`), then the sand by the
-geometric deposit around it.  Every sample is "only geometrically admissible": relax it
+geometric deposit around it; or, ``build="layered"``, the sand in layers, each layer's wire
+walked by Eq. (17) on its free surface and covered by the next layer.  Every sample is "only
+geometrically admissible": relax it
 (:func:`engine.prep.relax`) before a test.
 """
 from __future__ import annotations
@@ -39,7 +41,7 @@ from .wire import KM_PER_M3, helix, random_walk
 
 __all__ = ["Sample", "paper_sample", "cylinder_sample", "box_sample", "slope_sample", "PAPER",
            "PULLOUT", "pullout_sample", "pullout_box", "pullout_min_scale",
-           "WIRE_MODES"]
+           "WIRE_MODES", "BUILDS", "default_layers"]
 
 PAPER = {
     "cylinder": dict(diameter=9e-3, height=20e-3, n_sand=6200, d_min=0.3e-3, d_max=0.8e-3,
@@ -135,13 +137,85 @@ def _deposit(container, radii, obstacles, seed, deposit_height_factor=1.5):
                 raise
 
 
+def _slab(region, z0, z1):
+    """``region`` cut to the heights [z0, z1] (a Cylinder or a Box)."""
+    if isinstance(region, Cylinder):
+        cx, cy, _ = region.center
+        return Cylinder(region.radius, z1 - z0, (cx, cy, z0))
+    lo, hi = np.array(region.lo, float), np.array(region.hi, float)
+    lo[2], hi[2] = z0, z1
+    return Box(lo, hi)
+
+
+def _layered(container, wire_region, radii, *, wire, length, bead_radius, gap, seed, layers,
+             deposit_height_factor=1.5):
+    """The sand and the wire of a layered build (``build="layered"``): the grains in
+    ``layers`` equal shares, each laid by the geometric deposit on what is there already
+    (grains and beads: obstacles it rests on); on the free surface of each share but the
+    last, a wire of ``length / (layers - 1)`` walked by Eq. (17) (horizontal, one layer),
+    its beads' centres r_w above the 90th percentile of that share's grain tops (a bead
+    that would overlap a grain standing higher is refused and the walk goes round it),
+    inside ``wire_region``; the next share covers it.  Returns (centres, radii, chains,
+    the wire layers' surface heights [m])."""
+    z_floor = float(container.bounds()[0][2])
+    H = float(container.bounds()[1][2]) - z_floor
+    a = 2.0 * bead_radius + gap
+    shares = np.array_split(np.arange(radii.size), layers)
+    n_wires = layers - 1
+    centers, rads, chains, surfaces = np.zeros((0, 3)), np.zeros(0), [], []
+    top = z_floor
+    for k, share in enumerate(shares):
+        beads = np.vstack(chains) if chains else np.zeros((0, 3))
+        obstacles = (np.vstack([centers, beads]),
+                     np.r_[rads, np.full(beads.shape[0], bead_radius)])
+        mould_top = top + deposit_height_factor * H / layers
+        for attempt in range(4):
+            mould = _slab(container, z_floor, mould_top + (1.5 ** attempt - 1) * H / layers)
+            try:
+                c, r = geometric(radii[share], mould,
+                                 obstacles=obstacles if obstacles[1].size else None,
+                                 seed=seed + 1 + 7919 * k)
+                break
+            except DepositError:
+                if attempt == 3:
+                    raise
+        centers, rads = np.vstack([centers, c]), np.r_[rads, r]
+        top = float((c[:, 2] + r).max())
+        if not wire or k == layers - 1:
+            continue
+        surface = float(np.percentile(c[:, 2] + r, 90))
+        surfaces.append(surface)
+        z_w = surface + bead_radius
+        slab = _slab(wire_region, z_w - bead_radius - a, z_w + bead_radius + a)
+        beads = np.vstack(chains) if chains else np.zeros((0, 3))
+        try:
+            chains += random_walk(slab, bead_radius, gap, length=length / n_wires,
+                                  seed=seed + 31 * k, search_angle=math.pi / 4,
+                                  mode="orthotropic", layers=[z_w],
+                                  obstacles=(np.vstack([centers, beads]),
+                                             np.r_[rads, np.full(beads.shape[0], bead_radius)]))
+        except ValueError as e:
+            raise ValueError(f"layers = {layers}: the wire of layer {k + 1} "
+                             f"({length / n_wires:.4g} m) does not fit on its free surface "
+                             f"({e}); use more layers") from None
+        top = max(top, z_w + bead_radius)
+    return centers, rads, chains, surfaces
+
+
 def _build(name, container, wire_region, radii, *, wire, wire_density, bead_radius, seed,
-           wire_mode="isotropic", helix_pitch=None, helix_inset=0.0, deposit_height_factor=1.5):
+           wire_mode="isotropic", helix_pitch=None, helix_inset=0.0, deposit_height_factor=1.5,
+           build="wire_first", layers=None):
     bead_radius = float(bead_radius)
     gap = 0.2 * bead_radius
     t0 = time.perf_counter()
     chains = []
-    if wire and wire_mode == "helix":
+    if build == "layered":
+        centers, r, chains, surfaces = _layered(
+            container, wire_region, radii, wire=wire, length=wire_density * container.volume,
+            bead_radius=bead_radius, gap=gap, seed=seed, layers=layers,
+            deposit_height_factor=deposit_height_factor)
+        t1, t2 = t0, time.perf_counter()           # walks and deposits interleaved
+    elif wire and wire_mode == "helix":
         # the helix rises through the whole deposit mould (its beads take room, so the sand
         # rises above the container's top) and is cut at the sand's top once it is laid
         tall = Cylinder(wire_region.radius, wire_region.height * deposit_height_factor * 1.5,
@@ -151,13 +225,14 @@ def _build(name, container, wire_region, radii, *, wire, wire_density, bead_radi
         chains = random_walk(wire_region, bead_radius, gap,
                              length=wire_density * container.volume, seed=seed,
                              search_angle=math.pi / 4, mode=wire_mode)
-    t1 = time.perf_counter()
-    obstacles = None
-    if chains:
-        b = np.vstack(chains)
-        obstacles = (b, np.full(b.shape[0], bead_radius))
-    centers, r = _deposit(container, radii, obstacles, seed + 1, deposit_height_factor)
-    t2 = time.perf_counter()
+    if build != "layered":
+        t1 = time.perf_counter()
+        obstacles = None
+        if chains:
+            b = np.vstack(chains)
+            obstacles = (b, np.full(b.shape[0], bead_radius))
+        centers, r = _deposit(container, radii, obstacles, seed + 1, deposit_height_factor)
+        t2 = time.perf_counter()
     if chains and wire_mode == "helix":
         top = float((centers[:, 2] + r).max())
         chains = [c[c[:, 2] + bead_radius <= top] for c in chains]
@@ -166,7 +241,10 @@ def _build(name, container, wire_region, radii, *, wire, wire_density, bead_radi
                wire_density=wire_length(chains) / container.volume if chains else 0.0)
     s.info.update(wire_time=t1 - t0, deposit_time=t2 - t1, n_sand=int(r.size),
                   n_beads=s.n_beads, n_wires=len(chains),
-                  sand_top=float((centers[:, 2] + r).max() - container.bounds()[0][2]))
+                  sand_top=float((centers[:, 2] + r).max() - container.bounds()[0][2]),
+                  build=build)
+    if build == "layered":
+        s.info.update(layers=int(layers), wire_layers=[float(z) for z in surfaces])
     return s
 
 
@@ -180,8 +258,25 @@ MIN_GRAINS = 10
 WIRE_MODES = ("isotropic", "orthotropic", "helix")
 
 
+#: How a sample is built: the wire walked through the whole mould first and the sand laid
+#: around it (``"wire_first"``, the paper's §2.4), or the sand in layers, each covering the
+#: wire walked on the layer below's free surface (``"layered"``, as the TexSol machine lays
+#: them, §1.1).
+BUILDS = ("wire_first", "layered")
+
+
+def default_layers(height: float, bead_radius: float) -> int:
+    """The layered build's number of sand layers in a mould ``height`` [m] tall: wire layers
+    4 (2 r_w + g_w) apart, Eq. (17)'s layer spacing of :func:`engine.prep.random_walk`
+    (1.19 mm for the cylinder's beads: 18 sand layers at scale 1, 9 at scale 0.1), one sand
+    layer more than wire layers, at least 2."""
+    a = 4.0 * (2.2 * float(bead_radius))
+    return max(1, int(round(float(height) / a))) + 1
+
+
 def _paper(name, container, wire_region, scale, *, wire, wire_density, bead_radius, seed,
-           wire_mode="isotropic", helix_pitch=None, helix_inset=None):
+           wire_mode="isotropic", helix_pitch=None, helix_inset=None, build="wire_first",
+           layers=None):
     """The paper's grains for ``name`` at ``scale`` in ``container``, and the wire (walked by
     Eq. 16, ``wire_mode="isotropic"``, or Eq. 17, ``"orthotropic"``: horizontal layers with a
     rise angle of 5°, :func:`engine.prep.random_walk`; or the cylinder's ``"helix"``, one
@@ -204,6 +299,19 @@ def _paper(name, container, wire_region, scale, *, wire, wire_density, bead_radi
             helix_inset, (int, float, np.number)) or not (math.isfinite(helix_inset)
                                                          and helix_inset >= 0)):
         raise ValueError(f"helix_inset must be a number >= 0 [m], got {helix_inset!r}")
+    if build not in BUILDS:
+        raise ValueError(f"build = {build!r}: must be one of {', '.join(map(repr, BUILDS))}")
+    if build == "layered" and wire_mode != "isotropic":
+        raise ValueError(f"wire_mode = {wire_mode!r} with build = 'layered': the layered build "
+                         f"walks each layer's wire by Eq. 17 on the free surface; leave "
+                         f"wire_mode at its default")
+    if layers is not None and build != "layered":
+        raise ValueError(f"layers must be None with build = {build!r} (it is the layered "
+                         f"build's number of sand layers), got {layers!r}")
+    if layers is not None and (isinstance(layers, bool) or not isinstance(
+            layers, (int, np.integer)) or not 2 <= layers <= 1000):
+        raise ValueError(f"layers must be an integer in [2, 1000] (sand layers; the wire lies "
+                         f"between them), got {layers!r}")
     if isinstance(seed, bool) or not isinstance(seed, (int, np.integer)) or seed < 0:
         raise ValueError(f"seed must be an integer >= 0, got {seed!r}")
     for key, v in (("wire_density", wire_density), ("bead_radius", bead_radius),
@@ -225,7 +333,11 @@ def _paper(name, container, wire_region, scale, *, wire, wire_density, bead_radi
                   bead_radius=p["bead_radius"] if bead_radius is None else bead_radius, seed=seed,
                   wire_mode=wire_mode,
                   helix_inset=p["d_min"] if helix_inset is None else float(helix_inset),
-                  helix_pitch=p["d_max"] if helix_pitch is None else helix_pitch)
+                  helix_pitch=p["d_max"] if helix_pitch is None else helix_pitch, build=build,
+                  layers=(default_layers(container.bounds()[1][2] - container.bounds()[0][2],
+                                         p["bead_radius"] if bead_radius is None
+                                         else bead_radius)
+                          if layers is None else int(layers)) if build == "layered" else None)
 
 
 def _scale(scale):
@@ -237,8 +349,8 @@ def _scale(scale):
 
 def cylinder_sample(scale: float = 1.0, *, wire: bool = True, wire_density: float | None = None,
                     bead_radius: float | None = None, seed: int = 0, wire_mode: str = "isotropic",
-                    helix_pitch: float | None = None,
-                    helix_inset: float | None = None) -> Sample:
+                    helix_pitch: float | None = None, helix_inset: float | None = None,
+                    build: str = "wire_first", layers: int | None = None) -> Sample:
     """The cylinder triaxial sample (§3.3): Ø9 mm × 20 mm, 6 200 grains Ø0.3–0.8 mm and a wire
     at 250 km·m⁻³ (about 1 100 beads) at scale 1.  ``wire=False``: sand only.
 
@@ -253,19 +365,27 @@ def cylinder_sample(scale: float = 1.0, *, wire: bool = True, wire_density: floa
     from the pitch and the sand's height (at the defaults 511 km·m⁻³ of the mould at scale
     1, 1 361 at scale 0.1), so
     ``wire_density`` must be None.  The sand is the same as with the other modes for one
-    ``seed``."""
+    ``seed``.
+
+    ``build="layered"`` (any of the three samples; not the paper's §2.4, which walks the
+    wire first): the sand laid in ``layers`` layers (None: :func:`default_layers`, wire
+    layers 1.19 mm apart), the wire walked by Eq. (17) on each layer's free surface and
+    covered by the next, as the TexSol machine lays them (§1.1); the same wire length.
+    With ``wire=False`` the sand is laid in the same layers."""
     p = PAPER["cylinder"]
     s = _scale(scale)
     L = s ** (1.0 / 3.0)
     c = Cylinder(0.5 * p["diameter"] * L, p["height"] * L)
     return _paper("cylinder", c, c, s, wire=wire, wire_density=wire_density,
                   bead_radius=bead_radius, seed=seed, wire_mode=wire_mode,
-                  helix_pitch=helix_pitch, helix_inset=helix_inset)
+                  helix_pitch=helix_pitch, helix_inset=helix_inset, build=build,
+                  layers=layers)
 
 
 def box_sample(scale: float = 1.0, *, wire: bool = True, wire_density: float | None = None,
                bead_radius: float | None = None, seed: int = 0, wire_mode: str = "isotropic",
-               helix_pitch: float | None = None, helix_inset: float | None = None) -> Sample:
+               helix_pitch: float | None = None, helix_inset: float | None = None,
+               build: str = "wire_first", layers: int | None = None) -> Sample:
     """The box triaxial sample (§3.2): a 16 mm cube, 6 500 grains and a wire at 200 km·m⁻³
     (8 000 particles in all at scale 1).  ``bead_radius`` r_w (Fig. 12: r_min, r_min/3,
     r_min/4; default r_min).  ``wire_mode="helix"`` and ``helix_pitch`` are the cylinder's:
@@ -275,12 +395,14 @@ def box_sample(scale: float = 1.0, *, wire: bool = True, wire_density: float | N
     c = Box((0.0, 0.0, 0.0), (a, a, a))
     return _paper("box", c, c, s, wire=wire, wire_density=wire_density,
                   bead_radius=bead_radius, seed=seed, wire_mode=wire_mode,
-                  helix_pitch=helix_pitch, helix_inset=helix_inset)
+                  helix_pitch=helix_pitch, helix_inset=helix_inset, build=build,
+                  layers=layers)
 
 
 def slope_sample(scale: float = 1.0, *, wire: bool = True, wire_density: float | None = None,
                  bead_radius: float | None = None, seed: int = 0, wire_mode: str = "isotropic",
-                 helix_pitch: float | None = None, helix_inset: float | None = None) -> Sample:
+                 helix_pitch: float | None = None, helix_inset: float | None = None,
+               build: str = "wire_first", layers: int | None = None) -> Sample:
     """The slope-deposit sample (§3.1): Ø12 mm × 14 mm, 26 000 grains Ø0.2–0.6 mm and a wire
     at 400 km·m⁻³ (about 2 900 beads Ø0.2 mm), with no wire in an outer layer 2 d_max thick
     (at most a quarter of the radius).  ``wire_density=800e3`` gives the paper's TexSol(2).
@@ -293,7 +415,8 @@ def slope_sample(scale: float = 1.0, *, wire: bool = True, wire_density: float |
     inner = Cylinder(c.radius - layer, c.height)
     return _paper("slope", c, inner, s, wire=wire, wire_density=wire_density,
                   bead_radius=bead_radius, seed=seed, wire_mode=wire_mode,
-                  helix_pitch=helix_pitch, helix_inset=helix_inset)
+                  helix_pitch=helix_pitch, helix_inset=helix_inset, build=build,
+                  layers=layers)
 
 
 #: The pull-out sample (:func:`pullout_sample`, not one of the paper's) at scale 1: a box

@@ -456,7 +456,8 @@ def test_a_grid_prepares_and_starts_the_triaxial_tests(tmp_path, monkeypatch):
 
     _check_paper_cases("cylinder_triaxial", [dict(preparation="paper", wire_density=5e5,
                                                   wire_mode="orthotropic", wire_prestrain=0.01,
-                                                  confinement="layer_crown")], {})
+                                                  confinement="layer_crown"),
+                                             dict(preparation="layered")], {})
     for case, says in ((dict(preparation="wet"), r"preparation = 'wet': must be one of "
                                                  r"'geometric', 'paper'"),
                        (dict(confinement="rubber"), "confinement = 'rubber'"),

@@ -250,6 +250,57 @@ def test_helix_sample_refusals(build, kw, field):
     assert "\n" not in str(e.value)
 
 
+# ---------------------------------------------------------------- the layered build
+
+@pytest.mark.parametrize("build", [cylinder_sample, box_sample])
+def test_layered_build(build):
+    """build="layered": the same grains, the same wire length within one bead spacing per
+    wire, nothing overlapping, every bead inside the mould; each wire lies flat on one layer
+    (its beads within the walk's slab, ± (2 r_w + g_w) about its layer height) and is covered:
+    grains lie above most of its beads (the next layer's sand), none below the first layer's
+    surface is laid after it."""
+    s = build(0.1, seed=1, build="layered")
+    ref = build(0.1, seed=1)
+    sand = build(0.1, seed=1, wire=False, build="layered")
+    assert s.info["build"] == "layered" and s.info["layers"] >= 2
+    assert np.array_equal(np.sort(s.sand_radii), np.sort(ref.sand_radii))
+    assert np.array_equal(np.sort(sand.sand_radii), np.sort(ref.sand_radii))
+    a = 2 * s.bead_radius + s.gap
+    assert abs(wire_length(s.wire) - wire_length(ref.wire)) <= a * (len(s.wire) + 1)
+    beads = np.vstack(s.wire)
+    assert max_overlap(np.vstack([s.sand_centers, beads]),
+                       np.r_[s.sand_radii, np.full(len(beads), s.bead_radius)]) <= 1e-9
+    c = s.container                 # the sand may rise above the mould: sides and floor
+    tall = (Cylinder(c.radius, 10 * c.height, c.center) if isinstance(c, Cylinder)
+            else Box(c.lo, np.r_[c.hi[:2], 10 * c.hi[2]]))
+    assert np.all(tall.shrunk(s.bead_radius * (1 - 1e-9)).contains(beads))
+    layers = np.array(s.info["wire_layers"]) + s.bead_radius      # the bead centres' heights
+    assert len(layers) == s.info["layers"] - 1 and np.all(np.diff(layers) > 0)
+    tree = cKDTree(s.sand_centers[:, :2])
+    covered = 0
+    for c in s.wire:
+        k = np.argmin(np.abs(layers - np.median(c[:, 2])))
+        assert np.all(np.abs(c[:, 2] - layers[k]) <= a * (1 + 1e-9))
+        for b in c:
+            near = tree.query_ball_point(b[:2], 2 * PAPER[s.name]["d_max"])
+            covered += np.any(s.sand_centers[near, 2] > b[2])
+    assert covered >= 0.9 * len(beads)
+
+
+@pytest.mark.parametrize("kw, field", [
+    (dict(build="spread"), "build"),
+    (dict(layers=4), "layers"),                                  # wire_first has no layers
+    (dict(build="layered", layers=1), "layers"),
+    (dict(build="layered", layers=2.5), "layers"),
+    (dict(build="layered", wire_mode="helix"), "wire_mode"),
+    (dict(build="layered", wire_mode="orthotropic"), "wire_mode"),
+])
+def test_layered_refusals(kw, field):
+    with pytest.raises(ValueError, match=field) as e:
+        cylinder_sample(0.1, seed=0, **kw)
+    assert "\n" not in str(e.value)
+
+
 # ---------------------------------------------------------------- wire statistics
 
 def test_tortuosity_of_straight_chain_and_circle():

@@ -84,6 +84,21 @@ def test_the_box_paper_preparation_is_the_deposit_then_the_test(tmp_path):
     assert np.array_equal(curves(r), curves(again))
 
 
+def test_the_layered_preparation_is_the_paper_one_of_a_layered_sample(tmp_path):
+    """preparation="layered" = the paper preparation of the sample built in layers
+    (build="layered"): bit for bit; a sample given with it is refused in one line."""
+    r = box_triaxial(0.05, preparation="layered", deposit_steps=400,
+                     history=str(tmp_path / "l.h5"), **BOX)
+    again = box_triaxial(sample=box_sample(0.05, seed=0, build="layered"), preparation="paper",
+                         deposit_steps=400, history=str(tmp_path / "p.h5"), **BOX)
+    assert r.params["preparation"] == "layered"
+    assert np.array_equal(curves(r), curves(again))
+    with pytest.raises(ValueError, match="preparation = 'layered'") as e:
+        box_triaxial(sample=box_sample(0.05, seed=0), preparation="layered",
+                     history=str(tmp_path / "x.h5"), **BOX)
+    assert "\n" not in str(e.value)
+
+
 def test_an_end_state_keeps_its_wire(paper_cyl):
     """The test's model takes the state's link reference lengths (not its current lengths:
     slack links stay slack), laws and broken links, and its particles' velocities; the

@@ -417,6 +417,38 @@ class Model:
         return replace(self, pair_law=_frozen(pair_law), law_code=_frozen(code),
                        law_param=_frozen(param), laws=tuple(laws))
 
+    def with_group_removed(self, group: str) -> "Model":
+        """A copy in which the bodies of ``group`` are out of the mechanics from the next
+        step on: every pair of groups with ``group`` loses its contact law, their links
+        become :class:`engine.laws.LooseWire` (no force) and the bodies are IMPOSED (fixed
+        where they are).  They stay in the model, so a history keeps one body count.  The
+        State needs their velocities and their links' impulses set to zero and its
+        candidate pairs rebuilt (:func:`engine.experiments.start.remove_group` does both)."""
+        from dataclasses import replace
+
+        from . import laws as _laws
+
+        g = self.group_id(group)
+        ids = np.flatnonzero(self.body_group == g)
+        pair_law = self.pair_law.copy()
+        pair_law[g, :] = -1
+        pair_law[:, g] = -1
+        dof = self.body_dof.copy()
+        dof[ids] = IMPOSED
+        dyn = pack_body_dyn(self.body_kind, self.body_mass, self.body_inertia,
+                            self.body_radius, dof, self.body_line)
+        gone = self.links_of(ids)
+        law, stiff, uni = (self.link_law.copy(), self.link_stiffness.copy(),
+                           self.link_unilateral.copy())
+        law[gone], stiff[gone], uni[gone] = _laws.LOOSE_WIRE, 0.0, 1
+        return replace(self, pair_law=_frozen(pair_law), body_dof=_frozen(dof),
+                       body_dyn=_frozen(dyn), link_law=_frozen(law),
+                       link_stiffness=_frozen(stiff), link_unilateral=_frozen(uni))
+
+    def links_of(self, ids) -> np.ndarray:
+        """(n_links,) bool: the links with an end among the bodies ``ids``."""
+        return np.isin(self.link_i, ids) | np.isin(self.link_j, ids)
+
     def with_options(self, **changes) -> "Model":
         """A copy with some options changed (validated), e.g. ``model.with_options(dt=1e-5)``."""
         from dataclasses import replace

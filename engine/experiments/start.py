@@ -433,24 +433,9 @@ def remove_group(model: Model, state: State, group: str) -> Model:
     of every contact, link force and stress.  The candidate pairs are rebuilt at the next
     step.  Returns the new model; ``state`` is changed in place (the control
     ``remove_beads="at_loading"``)."""
-    from ..model import IMPOSED, _frozen, pack_body_dyn
-
-    g = model.group_id(group)
-    ids = np.flatnonzero(model.body_group == g)
-    pair_law = model.pair_law.copy()
-    pair_law[g, :] = -1
-    pair_law[:, g] = -1
-    dof = model.body_dof.copy()
-    dof[ids] = IMPOSED
-    dyn = pack_body_dyn(model.body_kind, model.body_mass, model.body_inertia,
-                        model.body_radius, dof, model.body_line)
-    gone = np.isin(model.link_i, ids) | np.isin(model.link_j, ids)
-    law, stiff, uni = (model.link_law.copy(), model.link_stiffness.copy(),
-                       model.link_unilateral.copy())
-    law[gone], stiff[gone], uni[gone] = _laws.LOOSE_WIRE, 0.0, 1
+    new = model.with_group_removed(group)
+    ids = np.flatnonzero(model.body_group == model.group_id(group))
     state.vel6[ids] = 0.0
-    state.link_impulse[gone] = 0.0
+    state.link_impulse[model.links_of(ids)] = 0.0
     state.pairs_ref = None
-    return replace(model, pair_law=_frozen(pair_law), body_dof=_frozen(dof),
-                   body_dyn=_frozen(dyn), link_law=_frozen(law), link_stiffness=_frozen(stiff),
-                   link_unilateral=_frozen(uni))
+    return new

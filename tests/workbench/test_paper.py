@@ -17,12 +17,12 @@ pytest.importorskip("distributed")
 from workbench.paper import SCALES, cases_for  # noqa: E402
 
 CLAIMS = ["fig7", "fig8-9", "fig10a", "fig10b", "fig11a", "fig11b", "fig11c", "fig12a", "fig12b",
-          "fig13a", "fig13b", "fig13c", "fig14-k0.2", "fig14-rigid", "fig14-order", "fig15",
-          "fig16a", "fig16b"]
+          "fig13a", "fig13b", "fig13c", "fig14-k0.2", "fig14-rigid", "fig14-order",
+          "fig14-links-k0.2", "fig14-links-rigid", "fig15", "fig16a", "fig16b"]
 FIGURES = ["fig07_tortuosity", "fig07_before", "fig07_after", "fig08_09_directions", "fig09_beads", "fig09_wire",
            "fig10_slope", "fig11_wire_stress", "fig11_forces", "fig11_wire", "fig12_strains",
            "fig13_cylinder", "fig13_beads", "fig13_wire", "fig13_torus", "fig14_stress_strain",
-           "fig15_wire_equivalent", "fig16_H_vs_k"]
+           "fig14_parts", "fig15_wire_equivalent", "fig16_H_vs_k"]
 RESULTS = Path(__file__).resolve().parents[2] / "bench" / "results"   # committed reports
 
 
@@ -64,11 +64,17 @@ def test_only_selects_claims_and_the_runs_they_read():
             assert {c["name"] for c in cases_for(s, only=cid)} == set(runs[cid]), (s.name, cid)
     s = SCALES["paper"]
     assert select_claims(None, s) is None
-    assert select_claims("fig14", s) == ["fig14-k0.2", "fig14-rigid", "fig14-order"]
+    assert select_claims("fig14", s) == ["fig14-k0.2", "fig14-rigid", "fig14-order",
+                                         "fig14-links-k0.2", "fig14-links-rigid"]
     assert select_claims("FIG10, fig8", s) == ["fig8-9", "fig10a", "fig10b"]   # report order
     assert select_claims(["fig16b", "fig13c"], s) == ["fig13c", "fig16b"]
     assert [c["name"] for c in cases_for(s, only="fig14")] == [
-        f"cylinder_{t}_seed{sd}" for sd in (0, 1, 2) for t in ("sand", "k0.2", "rigid")]
+        f"cylinder_{t}_seed{sd}" for sd in (0, 1, 2) for t in ("sand", "k0.2", "rigid")] + [
+        f"cylinder_{t}_seed{sd}" for sd in (0, 1, 2) for t in ("matched", "loose")]
+    parts = {c["name"]: c for c in cases_for(s, only="fig14-links-rigid")}
+    assert parts["cylinder_matched_seed1"]["remove_beads"] == "after_deposit"
+    assert parts["cylinder_loose_seed1"]["wire"] == "loose"
+    assert "cylinder_k0.2_seed0" not in parts
     assert len(cases_for(s, only="fig15")) == len(s.k_list) + 1
     for bad in ("fig1", "fig17", "table"):                 # fig1 is not a prefix of fig10a
         with pytest.raises(ValueError, match="unknown claim .*fig14-order"):
@@ -249,6 +255,39 @@ def test_fig12_pairs_the_bead_sizes_by_seed():
     assert _fig12(runs[:1], (0,))[0] == (None, None)             # one seed: no spread
 
 
+def test_fig14_links_are_scored_against_the_loose_twin_of_each_seed():
+    """Beside Fig. 14: each step of the decomposition is Δq/q paired by seed (mean and two
+    standard errors); the links' row passes when TexSol beats its loose twin beyond two
+    standard errors, whatever the sand does, and says so when it does not."""
+    from types import SimpleNamespace
+
+    from workbench.paper.scoring import fig14_parts, score_fig14
+
+    # the packing -20 %, the beads +10 % on every seed; the links: k = 0.2 N about +10 %
+    # (spread over the seeds), rigid exactly 0
+    q = {"sand": (10.0, 12.0, 11.0), "matched": (8.0, 9.6, 8.8), "loose": (8.8, 10.56, 9.68),
+         "k0.2": (9.5, 11.7, 10.7), "rigid": (8.8, 10.56, 9.68)}
+    curves = {f"cylinder_{t}_seed{s}": {"deviator": np.array([0.0, v])}
+              for t, vals in q.items() for s, v in enumerate(vals)}
+    scale = SimpleNamespace(fig14_seeds=(0, 1, 2))
+    parts = fig14_parts(curves, scale)
+    m, two_se, n = parts["k0.2"]["packing"]
+    assert n == 3 and m == pytest.approx(-0.2) and two_se == pytest.approx(0, abs=1e-12)
+    assert parts["k0.2"]["beads"][0] == pytest.approx(0.1)
+    rel = np.array([9.5 / 8.8, 11.7 / 10.56, 10.7 / 9.68]) - 1
+    assert parts["k0.2"]["links"][0] == pytest.approx(rel.mean())
+    assert parts["k0.2"]["links"][1] == pytest.approx(2 * rel.std(ddof=1) / np.sqrt(3))
+    assert parts["rigid"]["links"][0] == pytest.approx(0, abs=1e-12)
+    assert parts["rigid"]["total"][0] == pytest.approx(-0.12)
+    *_, k02, rigid = score_fig14(curves, scale)
+    assert k02.ok is True and "TexSol / loose beads (the links' tension) +" in k02.ours
+    assert rigid.ok is False and "matched sand / sand (the packing) -20.0% ± 0.0%" in rigid.ours
+    del curves["cylinder_loose_seed1"], curves["cylinder_loose_seed2"]
+    assert score_fig14(curves, scale)[-1].ok is None                 # one seed: no spread
+    del curves["cylinder_loose_seed0"]
+    assert score_fig14(curves, scale)[-1].ours == "runs missing"
+
+
 def test_fig13c_needs_a_mid_height_excess_beyond_the_seed_spread():
     """Fig. 13c: per seed the contrast (m - o)/(m + o) of the middle third's slabs (m)
     against the rest (o); reproduced only when its mean is > 0 beyond 2 standard errors.
@@ -317,21 +356,23 @@ def test_nscd_paper_tiny(tmp_path, monkeypatch):
     assert p2.returncode == 0, p2.stderr[-3000:]
     n = len(cases_for(SCALES["tiny"]))
     assert f"{n} cases, {n} already done, 0 to run" in p2.stdout
-    # --only fig14: its 6 runs reused, its claims and figure alone; the other figure files
+    # --only fig14: its 10 runs reused, its claims and figure alone; the other figure files
     # of the full build are left as they are
     fig07 = (out / "figures" / "fig07_tortuosity.png").stat().st_mtime_ns
     p3 = subprocess.run(cmd + ["--scheduler", "serial", "--no-render", "--only", "fig14"],
                         capture_output=True, text=True, timeout=300)
     assert p3.returncode == 0, p3.stderr[-3000:]
-    assert "6 cases, 6 already done, 0 to run" in p3.stdout
+    assert "10 cases, 10 already done, 0 to run" in p3.stdout
     report = (out / "report.md").read_text()
-    assert "--only fig14-k0.2,fig14-rigid,fig14-order" in report
+    assert ("--only fig14-k0.2,fig14-rigid,fig14-order,fig14-links-k0.2,fig14-links-rigid"
+            in report)
     ids = [c["id"] for c in json.loads((out / "claims.json").read_text())]
-    assert ids == ["fig14-k0.2", "fig14-rigid", "fig14-order"]
-    assert re.findall(r"figures/(\w+)\.png", report) == ["fig14_stress_strain"]
+    assert ids == ["fig14-k0.2", "fig14-rigid", "fig14-order", "fig14-links-k0.2",
+                   "fig14-links-rigid"]
+    assert re.findall(r"figures/(\w+)\.png", report) == ["fig14_stress_strain", "fig14_parts"]
     assert "## Table 2" not in report and "series/" not in report
     assert (out / "figures" / "fig07_tortuosity.png").stat().st_mtime_ns == fig07
-    assert len(re.findall(r"^\| cylinder_\w+\.?\w* \| done", report, re.M)) == 6
+    assert len(re.findall(r"^\| cylinder_\w+\.?\w* \| done", report, re.M)) == 10
     # the commit is read when the build starts (the code the runs import); a change of
     # HEAD during the build is reported beside it
     import workbench.paper as wp

@@ -6,6 +6,9 @@ from .scales import R_MIN_BOX, Scale, _fmt_k, fig10_seeds
 
 TAGS10 = ("sand", "w400", "w800")        # the slope heaps of Fig. 10
 TAGS14 = ("sand", "k0.2", "rigid")       # the cylinders of Fig. 14
+#: The controls beside Fig. 14 (docs/reinforcement.md): the TexSol samples' sand laid around
+#: their beads and tested without them, and the TexSol sample with its links loose.
+TAGS14_PARTS = ("matched", "loose")
 
 
 def deposits(scale: Scale) -> list:
@@ -57,6 +60,9 @@ def catalogue(scale: Scale) -> dict:
         _cylinder(cases, scale, "none", None, s)
         _cylinder(cases, scale, "elastic", 0.2, s)
         _cylinder(cases, scale, "rigid", None, s)
+    for s in scale.fig14_seeds:                              # beside Fig. 14: the controls
+        _cylinder(cases, scale, "elastic", 1.0, s, tag="matched", remove_beads="after_deposit")
+        _cylinder(cases, scale, "loose", None, s)
     for k in scale.k_list:                                   # Fig. 15-16, Table 2
         _cylinder(cases, scale, "elastic", k, 0)
     _cylinder(cases, scale, "rigid", None, 0)
@@ -67,7 +73,10 @@ def _add(cases, case):
     cases.setdefault(case["name"], case)
 
 
-def _cylinder(cases, scale, wire, k, seed):
-    tag = "sand" if wire == "none" else ("rigid" if wire == "rigid" else f"k{_fmt_k(k)}")
+def _cylinder(cases, scale, wire, k, seed, tag=None, **more):
+    if tag is None:
+        tag = ("sand" if wire == "none" else wire if wire in ("rigid", "loose")
+               else f"k{_fmt_k(k)}")
     _add(cases, dict(test="cylinder_triaxial", name=f"cylinder_{tag}_seed{seed}", wire=wire,
-                     k=(None if wire != "elastic" else float(k)), seed=seed, **scale.cylinder))
+                     k=(None if wire != "elastic" else float(k)), seed=seed, **scale.cylinder,
+                     **more))

@@ -182,6 +182,36 @@ def stress_strain(curves, scale, path):
                                         reference_label=ref_labs)
 
 
+def parts14(curves, scale, path):
+    """Beside Fig. 14: each step of the decomposition (:func:`.scoring.fig14_parts`) for
+    the elastic (k = 0.2 N) and the rigid wire, Δq/q [%] at the final strain with two
+    standard errors."""
+    from .scoring import FIG14_STEP_WORDS, fig14_parts
+
+    parts = fig14_parts(curves, scale)
+    if not any(v[2] for p in parts.values() for v in p.values()):
+        return _empty(path, "beside Fig. 14: runs missing")
+    fig, ax = _fig(size=(7.2, 4.4))
+    a = ax[0, 0]
+    steps = list(FIG14_STEP_WORDS)
+    x = np.arange(len(steps))
+    for j, (t, words) in enumerate((("k0.2", "elastic wire, k = 0.2 N"),
+                                    ("rigid", "rigid wire"))):
+        m = np.array([parts[t][k][0] for k in steps]) * 100
+        e = np.array([parts[t][k][1] for k in steps]) * 100
+        a.bar(x + (j - 0.5) * 0.38, m, 0.36, yerr=np.nan_to_num(e), capsize=3, label=words)
+    a.axhline(0, color="0.3", lw=0.8)
+    a.set_xticks(x)
+    a.set_xticklabels([FIG14_STEP_WORDS[k].split(" (")[0].replace(" / ", "\n/ ")
+                       for k in steps], fontsize=8)
+    a.set_ylabel("Δq/q at the final strain [%]")
+    n = max(v[2] for p in parts.values() for v in p.values())
+    a.set_title(f"paired by seed ({n} seeds), error bars 2 standard errors", fontsize=9)
+    a.grid(alpha=0.3, axis="y")
+    a.legend(fontsize=8)
+    return _save(fig, path)
+
+
 def wire_equivalent(curves, scale, path):
     """Fig. 15: σ_w^eq against ε_zz for every k and the rigid wire, with the lines of H."""
     fig, ax = _fig()

@@ -11,7 +11,7 @@ from dataclasses import dataclass, field
 from typing import Callable
 
 from . import plots, scoring
-from .cases import TAGS14, boxes, catalogue, cylinders, deposits, slopes, tags15
+from .cases import TAGS14, TAGS14_PARTS, boxes, catalogue, cylinders, deposits, slopes, tags15
 from .scales import PAPER_VALUES, Scale, _fmt_k
 from .stats import _spearman, _verdict
 
@@ -258,15 +258,39 @@ def _raise_row(tag, label, paper_key):
                     "stress' of Fig. 14 is not defined further")
 
 
+def _parts14(tag):
+    def runs(scale):
+        return cylinders(scale, ("sand",) + TAGS14_PARTS + (tag,), scale.fig14_seeds)
+    return runs
+
+
+def _links_row(tag, label):
+    return Row(f"fig14-links-{tag}", f"the {label}'s links raise the stress of the same "
+               f"packing with the same beads", "implied (the paper compares TexSol with "
+               "sand only)",
+               "TexSol against its loose-bead twin (the same sample, no link force), Δq/q "
+               "at the final strain paired by seed, above 0 by 2 standard errors; the "
+               "packing's and the beads' steps reported beside it", _parts14(tag),
+               note="the controls of docs/reinforcement.md: the matched sand is the TexSol "
+                    "sample's sand laid around its beads and tested without them "
+                    "(remove_beads='after_deposit'); the loose beads are the TexSol sample "
+                    "with wire='loose'")
+
+
 FIG14 = PaperClaim(
     "fig14", "Fig. 14",
     (_raise_row("k0.2", "elastic wire (k = 0.2 N)", "elastic k=0.2 N"),
      _raise_row("rigid", "rigid wire", "rigid"),
      Row("fig14-order", "the rigid wire raises the stress more than the elastic one",
-         "+23 % > +7 %", "the paired difference exceeds 2 standard errors", _runs14)),
+         "+23 % > +7 %", "the paired difference exceeds 2 standard errors", _runs14),
+     _links_row("k0.2", "elastic wire (k = 0.2 N)"),
+     _links_row("rigid", "rigid wire")),
     scoring.score_fig14,
     figures=(Plot("fig14", "fig14_stress_strain.png", "Fig. 14 — deviator and volumetric "
-                  "strain: sand, elastic k = 0.2 N, rigid (all seeds)", plots.stress_strain),))
+                  "strain: sand, elastic k = 0.2 N, rigid (all seeds)", plots.stress_strain),
+             Plot("fig14_parts", "fig14_parts.png", "Beside Fig. 14 — where the gap between "
+                  "TexSol and sand comes from: the packing, the beads, the links' tension "
+                  "(Δq/q at the final strain, ± 2 standard errors)", plots.parts14)))
 
 
 def _runs15(scale):

@@ -8,7 +8,7 @@ from typing import NamedTuple
 
 import numpy as np
 
-from .cases import TAGS10, TAGS14, boxes, deposits, tags15
+from .cases import TAGS10, TAGS14, TAGS14_PARTS, boxes, deposits, tags15
 from .scales import fig10_seeds
 from .stats import (_against, _seed_stats, _significant, _spearman, _H_list, _H_of, h_fit,
                     heap_slopes)
@@ -352,6 +352,47 @@ def score_fig14(curves, scale):
     out.append(Verdict(_significant(dm, dsd, dn),
                        f"rigid − elastic increase {dm:+.1%} ± {dsd:.1%} over {dn} seeds"
                        if dn else "runs missing"))
+    parts = fig14_parts(curves, scale)
+    for t in ("k0.2", "rigid"):
+        steps = parts[t]
+        m, two_se, n = steps["links"]
+        if not n:
+            out.append(Verdict(None, "runs missing"))
+            continue
+        words = "; ".join(f"{FIG14_STEP_WORDS[k]} {v[0]:+.1%} ± {v[1]:.1%}"
+                          for k, v in steps.items() if v[2])
+        ok = None if n < 2 else bool(m > two_se)
+        out.append(Verdict(ok, f"{words} (Δq/q at the final strain, mean ± 2 standard errors "
+                               f"over {n} seeds)"))
+    return out
+
+
+#: The steps of the decomposition beside Fig. 14, each against the one before it, and the
+#: whole gap (:func:`fig14_parts`).
+FIG14_STEP_WORDS = {"packing": "matched sand / sand (the packing)",
+                    "beads": "loose beads / matched sand (the beads)",
+                    "links": "TexSol / loose beads (the links' tension)",
+                    "total": "TexSol / sand (the whole gap)"}
+
+
+def fig14_parts(curves, scale) -> dict:
+    """{wire tag: {step: (mean, 2 standard errors, seeds)}} of Δq/q at the final strain,
+    paired by seed, for the steps of :data:`FIG14_STEP_WORDS`: sand → matched sand (the
+    TexSol sample's sand laid around its beads, tested without them) → loose beads (the
+    TexSol sample with no link force) → the TexSol sample (k = 0.2 N or rigid)."""
+    tags = TAGS14 + TAGS14_PARTS
+    q = {tag: {s: _final_q(curves.get(f"cylinder_{tag}_seed{s}")) for s in scale.fig14_seeds}
+         for tag in tags}
+    out = {}
+    for t in ("k0.2", "rigid"):
+        chain = {"packing": ("matched", "sand"), "beads": ("loose", "matched"),
+                 "links": (t, "loose"), "total": (t, "sand")}
+        out[t] = {}
+        for step, (b, a) in chain.items():
+            rel = [q[b][s] / q[a][s] - 1 for s in scale.fig14_seeds
+                   if q[b][s] is not None and q[a][s] is not None]
+            m, sd, n = _seed_stats(rel)
+            out[t][step] = (m, 2 * sd / np.sqrt(n) if n > 1 else float("nan"), n)
     return out
 
 

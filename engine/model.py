@@ -8,6 +8,7 @@ the dataclass itself.
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import Optional
 import numpy as np
 from pydantic import ConfigDict, Field, model_validator
 
@@ -48,6 +49,11 @@ def pack_body_dyn(kind, mass, inertia, radius, dof, line) -> np.ndarray:
     dyn[:, DYN_LINE] = (dof == LINE).astype(float)
     dyn[:, DYN_LX:DYN_LZ + 1] = line
     return dyn
+
+
+#: The position correction's default (:attr:`Options.overlap_tol`): overlaps beyond this
+#: fraction of the smaller radius are pushed out after every step.
+OVERLAP_TOL = None
 
 
 class Options(Checked):
@@ -131,6 +137,15 @@ class Options(Checked):
         packings settling as a whole: on the mould deposit's stagnating step,
         ε = 0.01 converges to round-off where the rigid law's sweeps wander
         (docs/speed.md).  Over-relaxation (``relax`` > 1) is refused with it.
+    overlap_tol : float or None
+        The position correction (:mod:`engine.solver.projection`): after each step, the
+        contacts overlapping by more than this fraction of their smaller radius are pushed
+        out to zero overlap by a projection on positions that leaves the velocities as
+        the step solved them (no kinetic energy added).  In (0, 1]; None, the default: no
+        correction.
+    overlap_sweeps : int
+        Most Gauss–Seidel sweeps of that projection per step, in [1, 10⁴] (default 50);
+        what a step leaves is corrected at the next one.
     natural_residual : bool
         Also compute each step's natural-map residual, Siconos's stopping measure
         (:mod:`engine.solver.residual`), into ``StepStats.natural_residual`` and the
@@ -155,6 +170,8 @@ class Options(Checked):
     max_overlap: float = Field(2.0, gt=0.0, le=1e3, allow_inf_nan=False)
     natural_residual: bool = False
     contact_compliance: float = Field(0.0, ge=0.0, le=1.0, allow_inf_nan=False)
+    overlap_tol: Optional[float] = Field(OVERLAP_TOL, gt=0.0, le=1.0, allow_inf_nan=False)
+    overlap_sweeps: int = Field(50, ge=1, le=10_000)
 
     _hot_alone = model_validator(mode="after")(lambda self: no_solver_conflict(self))
 

@@ -39,6 +39,20 @@ OVERLAP_WARN = 0.05
 ENERGY_WARN = 1e-6
 
 
+def overlap_advice(options) -> str:
+    """What to change when overlaps grow (the warning's and the stop's advice): without the
+    position correction, turn it on; with it, what is left is one step's sinking: a tighter
+    ``tol`` (the solve leaves a closing velocity each step), or a smaller ``dt`` if bodies
+    move fast."""
+    if options.overlap_tol is None:
+        return (f"set overlap_tol = 0.005 (overlaps pushed out after each step), or lower "
+                f"tol = {options.tol:g}; lower dt = {options.dt:g} s only if bodies move "
+                f"fast; or check loads and masses")
+    return (f"each step sinks them again before the correction (overlap_tol = "
+            f"{options.overlap_tol:g}): lower tol = {options.tol:g}, or dt = {options.dt:g} s "
+            f"if bodies move fast; or check loads and masses")
+
+
 @njit(cache=True)
 def max_overlap(n, gap, ri, rj, c_i, dof):
     """(largest overlap / smaller radius over the ``n`` contacts, its contact index; -1
@@ -164,5 +178,5 @@ THROUGH = {0: "went through plane {w} (its centre is behind the plane by more th
            3: "went through the top cap of cylinder {w}"}
 
 
-__all__ = ["max_overlap", "through_walls", "THROUGH", "reaction_gain", "energy_sources",
+__all__ = ["overlap_advice", "max_overlap", "through_walls", "THROUGH", "reaction_gain", "energy_sources",
            "ENERGY_WARN", "OVERLAP_WARN", "PhysicsWarning"]

@@ -12,7 +12,7 @@ import numpy as np
 
 from . import laws as _laws
 from .contact.broadphase import build_pairs
-from .model import (CAP_BOTTOM, CAP_TOP, CYLINDER, FREE, IMPOSED, LINE, PLANE, SPHERE, Drive,
+from .model import (OVERLAP_TOL, CAP_BOTTOM, CAP_TOP, CYLINDER, FREE, IMPOSED, LINE, PLANE, SPHERE, Drive,
                     Model, Options, pack_body_dyn)
 from .schedules import Schedule
 from .state import State
@@ -534,7 +534,8 @@ class Scene:
                 relax: float = 1.0, alert: float | None = None, skin: float | None = None,
                 threads: int = 1, anderson: int = 0, hot_sweeps: int = 0,
                 max_overlap: float = 2.0, chain_solve: bool = False,
-                natural_residual: bool = False, contact_compliance: float = 0.0):
+                natural_residual: bool = False, contact_compliance: float = 0.0,
+                overlap_tol: float | None = OVERLAP_TOL, overlap_sweeps: int = 50):
         """Freeze the scene into a :class:`Model` and its initial :class:`State`.
 
         Parameters
@@ -567,6 +568,9 @@ class Scene:
         contact_compliance : float in [0, 1]
             ε, the contacts' normal compliance as a fraction of their Delassus diagonal
             (:attr:`engine.model.Options.contact_compliance`; 0, the default: rigid).
+        overlap_tol : float in (0, 1] or None ; overlap_sweeps : int >= 1
+            The position correction after each step (:mod:`engine.solver.projection`,
+            :attr:`engine.model.Options.overlap_tol`; None: none).
 
         Raises
         ------
@@ -589,7 +593,8 @@ class Scene:
                        threads=threads, anderson=anderson, hot_sweeps=hot_sweeps,
                        max_overlap=max_overlap, chain_solve=chain_solve,
                        natural_residual=natural_residual,
-                       contact_compliance=contact_compliance)
+                       contact_compliance=contact_compliance, overlap_tol=overlap_tol,
+                       overlap_sweeps=overlap_sweeps)
 
         dof = np.where(kind == SPHERE, FREE, IMPOSED).astype(np.int8)
         line = np.zeros((nb, 3))

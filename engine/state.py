@@ -127,14 +127,18 @@ class Workspace:
         that array.
     anderson : engine.solver.anderson.Workspace or None
         The Anderson mixing's history buffers (``Options.anderson > 0``).
+    projection : tuple of arrays or None
+        The position correction's buffers (``Options.overlap_tol``,
+        :mod:`engine.solver.projection`): displacements, pseudo-impulses, flags, gaps.
     """
 
-    __slots__ = ("free_vel", "sphere_order", "anderson")
+    __slots__ = ("free_vel", "sphere_order", "anderson", "projection")
 
     def __init__(self):
         self.free_vel = None
         self.sphere_order = None
         self.anderson = None
+        self.projection = None
 
     def __reduce__(self):
         return (Workspace, ())

@@ -14,7 +14,9 @@ The order of one step (each stage a public function of ``(model, state)``, testa
    free velocities were equal; :func:`engine.contact.late_contacts_possible`), the
    narrowphase looks again with them, the pair is added and the step solved again from the
    impulses found, until the contacts no longer change or :data:`LATE_PASSES` times;
-4. :func:`engine.integrator.update` — q_{i+1} = q_m + θ h v_{i+1}; time advances by h.
+4. :func:`engine.integrator.update` — q_{i+1} = q_m + θ h v_{i+1}; time advances by h;
+   with ``Options.overlap_tol``, :func:`engine.solver.projection.correct_positions` then
+   pushes the overlaps beyond it out, on positions only (no velocity changed).
 
 :func:`run` then, after each complete step n (``state.step`` = n):
 
@@ -49,8 +51,9 @@ from .errors import NonConvergenceWarning, SimulationError
 from .contact import detect, late_contacts_possible, restore_pairs
 from .integrator import free_velocity, update
 from .sanity import (ENERGY_WARN, OVERLAP_WARN, THROUGH, PhysicsWarning, energy_sources,
-                     max_overlap, reaction_gain, through_walls)
+                     max_overlap, overlap_advice, reaction_gain, through_walls)
 from .solver.nlgs import _break_links, solve
+from .solver.projection import correct_positions
 from .solver.residual import natural_residual
 from .state import ContactBuffers, StepStats
 from .trigger import CallbackUpdater, Updater, every  # noqa: F401  (public here)
@@ -160,6 +163,7 @@ def _stages(model, state) -> StepStats:
                                model.sphere_ids, model.body_dof)
     nat = natural_residual(model, state, free) if model.options.natural_residual else None
     update(model, state)
+    correct_positions(model, state)
     ov, at = max_overlap(c.count, c.gap, c.ri, c.rj, c.i, model.body_dof)
     stats = StepStats(iterations=it, residual=res, converged=res < model.options.tol,
                       n_contacts=c.count, rebuilt=rebuilt, late_contacts=late,
@@ -285,7 +289,7 @@ def _check_physics(model, state, stats, walls) -> None:
         raise SimulationError(
             f"step {state.step} (t = {state.time:.6g} s): bodies {i} and {j} overlap by "
             f"{100 * stats.max_overlap:.3g} % of a radius, past max_overlap = {limit:g}; "
-            f"lower dt = {model.options.dt:g} s, or check speeds, loads and masses")
+            f"{overlap_advice(model.options)}")
     if walls.size:
         b, w, where = through_walls(state.position, model.body_radius, model.body_group,
                                     model.sphere_ids, walls, model.pair_law, model.body_kind,
@@ -455,8 +459,8 @@ def run(model, state, steps: int, writers: Iterable = (), progress: bool = True,
         summary.mean_iterations = total_it / summary.steps if summary.steps else 0.0
     if summary.max_overlap > OVERLAP_WARN:
         warnings.warn(f"overlaps up to {100 * summary.max_overlap:.3g} % of a radius (step "
-                      f"{summary.max_overlap_step}), above {100 * OVERLAP_WARN:g} %: lower dt "
-                      f"= {model.options.dt:g} s, or check speeds, loads and masses",
+                      f"{summary.max_overlap_step}), above {100 * OVERLAP_WARN:g} %: "
+                      f"{overlap_advice(model.options)}",
                       PhysicsWarning, stacklevel=2)
     if summary.energy_gain > ENERGY_WARN:
         warnings.warn(f"the reactions added kinetic energy to the free motion "

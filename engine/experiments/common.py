@@ -167,7 +167,7 @@ def compile_options(cfg) -> dict:
     return dict(dt=cfg.dt, theta=cfg.theta, tol=cfg.tol, max_iter=cfg.max_iter,
                 relax=cfg.relax, anderson=cfg.anderson, threads=cfg.threads,
                 hot_sweeps=cfg.hot_sweeps, chain_solve=cfg.chain_solve,
-                contact_compliance=cfg.contact_compliance)
+                contact_compliance=cfg.contact_compliance, overlap_tol=cfg.overlap_tol)
 
 
 def inertial_rate(pressure, d_mean, density, inertial_number):

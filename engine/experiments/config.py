@@ -38,7 +38,7 @@ from pydantic import (ConfigDict, Discriminator, Field, Tag, ValidationError, cr
                       field_validator, model_validator)
 
 from ..checks import InputError, NumbersOnly, describe
-from ..model import MAX_ITER_LIMIT, solver_conflict
+from ..model import MAX_ITER_LIMIT, OVERLAP_TOL, solver_conflict
 
 __all__ = ["CONFIGS", "TestConfig", "CylinderConfig", "BoxConfig", "SlopeConfig",
            "DepositConfig", "PulloutConfig", "Solver", "HotSweeps", "Anderson", "WireSpec",
@@ -237,6 +237,9 @@ class Solver(Strict):
                                                   "of their Delassus diagonal (0: rigid; "
                                                   "0.01 cures the mould deposit's stagnation, "
                                                   "overlaps ε h² W_nn F)")
+    overlap_tol: Optional[float] = Field(OVERLAP_TOL, gt=0, le=1, description=(
+        "overlaps beyond this fraction of the smaller radius are pushed out after each step, "
+        "on positions only (no energy added; None: never)"))
     max_nonconverged: float = Field(0.25, ge=0, le=1)
 
     @property

@@ -16,6 +16,7 @@ from ..prep.samples import Sample
 from ..prep.relax import kinetic_energy
 from ..scene import Scene
 from .config import DepositConfig
+from ..model import OVERLAP_TOL
 from .common import (RestCheckpoint, RestResult, check_bool, check_scale, compile_options,
                      deposit_laws, finish, rest_run, rest_summary, run_identity, run_meta,
                      sample_identity, solver_choice, wire_before_after, wire_law_or_default)
@@ -83,6 +84,7 @@ def gravity_deposit(scale: float = 0.05, *, sample: str | Sample = "slope", wire
                     tol: float = 1e-4, max_iter: int = 1000, relax: float = 1.0,
                     anderson: int = 0, threads: int = 1, hot_sweeps: int | None = None,
                     chain_solve: bool = False, contact_compliance: float = 0.0,
+                    overlap_tol: float | None = OVERLAP_TOL,
                     mu: float = 0.5, mu_wall: float = 0.5, mu_wire: float = 0.3,
                     record_every: int = 20, frames: int = 200,
                     max_nonconverged: float = 0.25, history: str = "out/gravity_deposit.h5",
@@ -214,6 +216,7 @@ def _params(cfg, smp) -> dict:
                 max_iter=cfg.max_iter, relax=cfg.relax, anderson=cfg.anderson,
                 threads=cfg.threads, hot_sweeps=cfg.hot_sweeps,
                 chain_solve=cfg.chain_solve, contact_compliance=cfg.contact_compliance,
+                overlap_tol=cfg.overlap_tol,
                 mu=cfg.mu, mu_wall=cfg.mu_wall,
                 mu_wire=cfg.mu_wire, seed=cfg.seed, n_sand=int(smp.sand_radii.size),
                 n_beads=smp.n_beads, friction_angle_deg=math.degrees(math.atan(cfg.mu)),

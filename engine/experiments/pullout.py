@@ -47,7 +47,7 @@ import numpy as np
 from .. import laws
 from ..analysis import wall_forces
 from ..analysis.energy import kinetic_energy
-from ..model import Drive
+from ..model import OVERLAP_TOL, Drive
 from ..prep.samples import pullout_sample
 from ..scene import Scene
 from ..schedules import FollowSchedules, Ramp
@@ -170,6 +170,7 @@ def pullout_test(scale: float = 0.2, *, pressure: float = 15e3, wire: bool = Tru
                  tol: float = 3e-4, max_iter: int = 1000, relax: float = 1.0,
                  anderson: int = 0, threads: int = 1, hot_sweeps: int | None = None,
                  chain_solve: bool = False, contact_compliance: float = 0.0,
+                 overlap_tol: float | None = OVERLAP_TOL,
                  mu: float = 0.5, mu_wall: float = 0.0, mu_wire: float = 0.3,
                  record_every: int = 10, frames: int = 100, max_nonconverged: float = 0.25,
                  history: str = "out/pullout_test.h5", seed: int = 0,
@@ -516,6 +517,7 @@ def _params(rig, cfg) -> dict:
                 dt=cfg.dt, theta=cfg.theta, tol=cfg.tol, max_iter=cfg.max_iter,
                 relax=cfg.relax, anderson=cfg.anderson, threads=cfg.threads,
                 hot_sweeps=cfg.hot_sweeps, chain_solve=cfg.chain_solve,
-                contact_compliance=cfg.contact_compliance, mu=cfg.mu, mu_wall=cfg.mu_wall,
+                contact_compliance=cfg.contact_compliance,
+                overlap_tol=cfg.overlap_tol, mu=cfg.mu, mu_wall=cfg.mu_wall,
                 mu_wire=cfg.mu_wire, n_sand=int(smp.sand_radii.size), n_beads=smp.n_beads,
                 consolidated=bool(cfg.consolidated), config=cfg.config.model_dump(mode="json"))

@@ -16,6 +16,7 @@ from ..prep.relax import kinetic_energy
 from ..scene import Scene
 from .config import SlopeConfig
 from .start import start_of
+from ..model import OVERLAP_TOL
 from .common import (RestCheckpoint, RestResult, check_bool, check_scale, compile_options,
                      deposit_laws, finish, rest_run, rest_summary, run_identity, run_meta,
                      sample_identity, solver_choice, wire_before_after, wire_law_or_default)
@@ -91,7 +92,8 @@ def slope_deposit(scale: float = 0.02, *, sample=None, wire: bool = True,
                   theta: float = 0.5, tol: float = 1e-4, max_iter: int = 1000,
                   relax: float = 1.0, anderson: int = 0, threads: int = 1,
                   hot_sweeps: int | None = None, chain_solve: bool = False,
-                  contact_compliance: float = 0.0, mu: float = 0.5,
+                  contact_compliance: float = 0.0,
+                  overlap_tol: float | None = OVERLAP_TOL, mu: float = 0.5,
                   mu_floor: float = 0.8, mu_wire: float = 0.3, record_every: int = 20,
                   frames: int = 200, max_nonconverged: float = 0.25,
                   history: str = "out/slope_deposit.h5", seed: int = 0,
@@ -255,6 +257,7 @@ def _slope_result(heap, done, cfg, st, chains0) -> SlopeResult:
                     max_iter=cfg.max_iter, relax=cfg.relax, anderson=cfg.anderson,
                     threads=cfg.threads, hot_sweeps=cfg.hot_sweeps,
                     chain_solve=cfg.chain_solve, contact_compliance=cfg.contact_compliance,
+                overlap_tol=cfg.overlap_tol,
                     mu=cfg.mu,
                     mu_floor=cfg.mu_floor, mu_wire=cfg.mu_wire, seed=cfg.seed,
                     n_sand=int(st.sand_radii.size), n_beads=st.n_beads,

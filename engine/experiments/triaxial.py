@@ -58,6 +58,7 @@ from ..prep import Box, Cylinder, box_sample, cylinder_sample
 from ..scene import Scene
 from .config import CONFIGS
 from .start import check_preparation, remove_group, start_of, without_wire
+from ..model import OVERLAP_TOL
 from .common import (ConfinementError, Recorder, Stages, TestResult, check_scale,
                      choose_rate, compile_options, finish, history_writer, run_meta,
                      solver_choice, wire_law_or_default)
@@ -135,6 +136,7 @@ def cylinder_triaxial(scale: float = 0.05, *, sample=None, preparation: str = "g
                       tol: float = 3e-4, max_iter: int = 1000, relax: float = 1.0,
                       anderson: int = 0, threads: int = 1, hot_sweeps: int | None = None,
                       chain_solve: bool = False, contact_compliance: float = 0.0,
+                      overlap_tol: float | None = OVERLAP_TOL,
                       mu: float = 0.5, mu_wall: float = 0.5, mu_wire: float = 0.3,
                       compaction_mu: float | None = None, iso_tol: float = 0.02,
                       iso_hold: int = 5, iso_max_steps: int = 4000, confine_every: int = 10,
@@ -215,8 +217,8 @@ def cylinder_triaxial(scale: float = 0.05, *, sample=None, preparation: str = "g
 
 #: The test's arguments the paper preparation's deposit takes as they are.
 _DEPOSIT_ARGS = ("dt", "theta", "tol", "max_iter", "relax", "anderson", "threads",
-                 "hot_sweeps", "chain_solve", "contact_compliance", "mu", "mu_wall", "mu_wire",
-                 "max_nonconverged", "seed")
+                 "hot_sweeps", "chain_solve", "contact_compliance", "overlap_tol", "mu",
+                 "mu_wall", "mu_wire", "max_nonconverged", "seed")
 
 
 def _prepared(test, shape, builder, a):
@@ -461,7 +463,8 @@ def box_triaxial(scale: float = 0.05, *, sample=None, preparation: str = "geomet
                  theta: float = 0.5, tol: float = 3e-4, max_iter: int = 1000,
                  relax: float = 1.0, anderson: int = 0, threads: int = 1,
                  hot_sweeps: int | None = None,
-                 chain_solve: bool = False, contact_compliance: float = 0.0, mu: float = 0.5,
+                 chain_solve: bool = False, contact_compliance: float = 0.0,
+                 overlap_tol: float | None = OVERLAP_TOL, mu: float = 0.5,
                  mu_wall: float = 0.0,
                  mu_wire: float = 0.3, compaction_mu: float | None = None,
                  wall_mass: float | None = None, iso_tol: float = 0.02, iso_hold: int = 5,
@@ -730,7 +733,8 @@ def _params(rig, cfg, deposit) -> dict:
                 loading_velocity=cfg.rate * rig.H0, dt=cfg.dt, theta=cfg.theta, tol=cfg.tol,
                 max_iter=cfg.max_iter, anderson=cfg.anderson, threads=cfg.threads,
                 hot_sweeps=cfg.hot_sweeps, chain_solve=cfg.chain_solve,
-                contact_compliance=cfg.contact_compliance, mu=cfg.mu,
+                contact_compliance=cfg.contact_compliance,
+                overlap_tol=cfg.overlap_tol, mu=cfg.mu,
                 mu_wall=cfg.mu_wall,
                 mu_wire=cfg.mu_wire, compaction_mu=cfg.compaction_mu, seed=cfg.seed,
                 n_sand=int(st.sand_radii.size), n_beads=st.n_beads, d_mean=rig.d_mean,

@@ -50,6 +50,10 @@ def main(argv=None):
     ap.add_argument("--no-side", action="store_true",
                     help="leave out the packing with its beads removed at the loading")
     ap.add_argument("--workers", type=int, default=2, choices=(1, 2))
+    ap.add_argument("--overlap-tol", default="default",
+                    help="the position correction's overlap_tol of every case (none: off; "
+                         "default: the engine's, written into the cases; legacy: no "
+                         "overlap_tol in the cases, the keys of the tables run before it)")
     ap.add_argument("--table", default=None)
     ap.add_argument("--runs", default="out/chain_runs", help="the histories (not committed)")
     ap.add_argument("--summary-only", action="store_true")
@@ -60,9 +64,14 @@ def main(argv=None):
 
     seeds = [int(s) for s in a.seeds.split(",")]
     preps = [p.strip() for p in a.preparations.split(",") if p.strip()]
+    from engine.model import OVERLAP_TOL
+
+    ov = {} if a.overlap_tol == "legacy" else {"overlap_tol": (
+        OVERLAP_TOL if a.overlap_tol == "default" else None if a.overlap_tol == "none"
+        else float(a.overlap_tol))}
     todo = chain_cases(seeds, a.scale, pressures=_floats(a.pressures), preparations=preps,
                        wire=a.wire, k=a.k if a.wire == "elastic" else None,
-                       axial_strain=a.strain, side=not a.no_side)
+                       axial_strain=a.strain, side=not a.no_side, **ov)
     table_path = a.table or os.path.join(record.RESULTS, f"chain-table-scale{a.scale:g}.json")
     runs_dir = os.path.join(a.runs, f"scale{a.scale:g}")
     busy = record.Busy()

@@ -130,7 +130,7 @@ def case(*, name, wire, k, seed, runs_dir, scale=1.0, **params) -> dict:
 
     os.makedirs(runs_dir, exist_ok=True)
     law = wire_spec(wire, k).to_law()
-    kw = {n: v for n, v in params.items() if v is not None}
+    kw = {n: v for n, v in params.items() if v is not None or n == "overlap_tol"}
     if wire == "none":
         kw.pop("wire_prestrain", None)
     res = not_interrupted(cylinder_triaxial(
@@ -377,11 +377,20 @@ CHAIN_BASE = dict(wire="elastic", k=1.0, preparation="paper", pressure=15e3,
 CHAIN_TAGS = ("2", "5", "10", "peak")
 
 
+#: ``overlap_tol`` of :func:`chain_cases` when it is not given: the cases carry none (the
+#: engine's default then, and the keys of the tables run before the position correction).
+UNSET = object()
+
+
 def chain_cases(seeds, scale=1.0, *, pressures=(15e3,), preparations=("paper",),
-                wire="elastic", k=1.0, axial_strain=0.1, side=True) -> list[dict]:
+                wire="elastic", k=1.0, axial_strain=0.1, side=True,
+                overlap_tol=UNSET) -> list[dict]:
     """The cases of the decomposition (:data:`CHAIN`, and :data:`SIDE` with ``side``) for
     every seed, pressure [Pa] and preparation, seed-major; the TexSol sample's law is
-    ``wire`` with stiffness ``k`` [N] (None for the rigid wire)."""
+    ``wire`` with stiffness ``k`` [N] (None for the rigid wire).  ``overlap_tol``, when
+    given (None too), goes into every case and its name (``_ov0.005``, ``_ovnone``), so
+    that runs with and without the position correction never share a table row or a
+    history."""
     out = []
     steps = CHAIN + (SIDE if side else ())
     for prep in preparations:
@@ -391,6 +400,8 @@ def chain_cases(seeds, scale=1.0, *, pressures=(15e3,), preparations=("paper",),
                     c = dict(CHAIN_BASE, wire=wire, k=k, preparation=prep, pressure=float(p))
                     c.update(change, seed=int(seed), scale=float(scale),
                              axial_strain=float(axial_strain), step=step)
+                    if overlap_tol is not UNSET:
+                        c["overlap_tol"] = overlap_tol
                     c["name"] = _chain_name(c)
                     out.append(c)
     return out
@@ -403,6 +414,8 @@ def _chain_name(c) -> str:
     if c["remove_beads"] != "never":
         parts.append(f"removed-{c['remove_beads']}")
     parts += [c["preparation"], f"p{c['pressure'] / 1e3:g}k", f"seed{c['seed']}"]
+    if "overlap_tol" in c:
+        parts.append("ovnone" if c["overlap_tol"] is None else f"ov{c['overlap_tol']:g}")
     return "_".join(parts)
 
 

@@ -18,50 +18,44 @@ with g the contacts' gaps at q_{i+1} (linearized in the step's frames: g_m + θ 
 W = Hᵀ M⁻¹ H.  Only positions move; velocities, impulses and the warm start are the step's,
 so the correction adds no kinetic energy (a pseudo-impulse, not an impulse).  A contact is
 pushed out to exactly zero overlap; one whose overlap is within the tolerance is left as it
-is (no correction, no cost beyond the one look at its gap).  Walls and imposed bodies do not
-move; a LINE body (a pressure- or force-driven wall) moves along its line.
+is (no correction, no cost beyond the one look at its gap).  Walls do not move, driven ones
+included (a pressure- or force-driven wall moves by its drive alone): the spheres are
+pushed out of them.
 """
 from __future__ import annotations
 
 import numpy as np
 from numba import njit
 
-from ..model import DYN_INV_MASS, DYN_LINE, DYN_LX, DYN_LY, DYN_LZ
+from ..laws import LOOSE_WIRE
+from ..model import DYN_INV_MASS, DYN_LINE
 
 __all__ = ["correct_positions", "project"]
 
 
 @njit(cache=True)
-def _line_share(body_dyn, b, nx, ny, nz):
+def _inv_mass(body_dyn, b):
+    """The body's inverse mass in the projection: a sphere's; 0 for every wall (imposed or
+    driven along a line), so that a driven wall moves by its drive alone."""
     if body_dyn[b, DYN_LINE] != 0.0:
-        d = nx * body_dyn[b, DYN_LX] + ny * body_dyn[b, DYN_LY] + nz * body_dyn[b, DYN_LZ]
-        return d * d
-    return 1.0
+        return 0.0
+    return body_dyn[b, DYN_INV_MASS]
 
 
 @njit(cache=True)
 def _move(b, nx, ny, nz, d, body_dyn, dx):
-    """Move body b by its share of the pseudo-impulse d along n (along its line if LINE)."""
-    im = body_dyn[b, DYN_INV_MASS]
+    """Move body b by its share M⁻¹ n d of the pseudo-impulse d."""
+    im = _inv_mass(body_dyn, b)
     if im == 0.0:
         return
-    if body_dyn[b, DYN_LINE] != 0.0:
-        lx = body_dyn[b, DYN_LX]
-        ly = body_dyn[b, DYN_LY]
-        lz = body_dyn[b, DYN_LZ]
-        s = im * d * (nx * lx + ny * ly + nz * lz)
-        dx[b, 0] += s * lx
-        dx[b, 1] += s * ly
-        dx[b, 2] += s * lz
-    else:
-        dx[b, 0] += im * d * nx
-        dx[b, 1] += im * d * ny
-        dx[b, 2] += im * d * nz
+    dx[b, 0] += im * d * nx
+    dx[b, 1] += im * d * ny
+    dx[b, 2] += im * d * nz
 
 
 @njit(cache=True)
 def project(n, ci, cj, frame, gap, ri, rj, body_dyn, vel6, h_theta, rel_tol, max_sweeps,
-            dx, lam, active):
+            dx, lam, active, nl, li, lj, lkeep, lnormal):
     """Projected Gauss–Seidel on the overlaps of the ``n`` contacts at the step's end.
 
     ``gap`` (n,) the gaps at q_m [m]; the gap at q_{i+1} is g_m + θ h u_n (``h_theta``,
@@ -72,7 +66,13 @@ def project(n, ci, cj, frame, gap, ri, rj, body_dyn, vel6, h_theta, rel_tol, max
     ``dx`` (nb, 3), zeroed by the caller).  Contacts that the corrections close join the
     active set at the next sweep.  Stops when no active contact is below −``rel_tol`` × its
     radius, or after ``max_sweeps``.  Returns (sweeps, the largest remaining overlap
-    relative to the smaller radius, active contacts)."""
+    relative to the smaller radius, active contacts).
+
+    The ``nl`` wire links ``li``–``lj`` with ``lkeep`` = 1 keep their lengths (to first
+    order: n_l · (Δx_i − Δx_j) = 0, ``lnormal`` (nl, 3) their unit vectors from j to i),
+    a bilateral row after the contacts in each sweep: a bead pushed out of a grain takes
+    its neighbours along instead of stretching its links, whose elastic energy (or, for a
+    rigid wire, whose constraint) the correction would otherwise change."""
     n_act = 0
     for a in range(n):
         r = ri[a] if rj[a] <= 0.0 else min(ri[a], rj[a])
@@ -106,8 +106,7 @@ def project(n, ci, cj, frame, gap, ri, rj, body_dyn, vel6, h_theta, rel_tol, max
                     continue
                 active[a] = 1
                 n_act += 1
-            w = (body_dyn[i, DYN_INV_MASS] * _line_share(body_dyn, i, nx, ny, nz)
-                 + body_dyn[j, DYN_INV_MASS] * _line_share(body_dyn, j, nx, ny, nz))
+            w = _inv_mass(body_dyn, i) + _inv_mass(body_dyn, j)
             if w <= 0.0:
                 continue
             new = lam[a] - g / w
@@ -120,6 +119,22 @@ def project(n, ci, cj, frame, gap, ri, rj, body_dyn, vel6, h_theta, rel_tol, max
                 _move(j, nx, ny, nz, -d, body_dyn, dx)
             if -g / r > worst:
                 worst = -g / r
+        for k in range(nl):
+            if lkeep[k] == 0:
+                continue
+            i = li[k]
+            j = lj[k]
+            w = _inv_mass(body_dyn, i) + _inv_mass(body_dyn, j)
+            if w <= 0.0:
+                continue
+            nx = lnormal[k, 0]
+            ny = lnormal[k, 1]
+            nz = lnormal[k, 2]
+            c = (nx * (dx[i, 0] - dx[j, 0]) + ny * (dx[i, 1] - dx[j, 1])
+                 + nz * (dx[i, 2] - dx[j, 2]))
+            if c != 0.0:
+                _move(i, nx, ny, nz, -c / w, body_dyn, dx)
+                _move(j, nx, ny, nz, c / w, body_dyn, dx)
         if worst <= rel_tol:
             break
     return sweeps, worst, n_act
@@ -144,9 +159,16 @@ def correct_positions(model, state) -> tuple[int, int]:
     dx, lam, active, gap = ws.projection
     dx[:] = 0.0
     gap[:n] = c.gap[:n]
+    nl = model.n_links
+    if nl:
+        keep = ((~state.link_broken) & (model.link_law != LOOSE_WIRE)).astype(np.int8)
+        d = state.position[model.link_i] - state.position[model.link_j]
+        d /= np.maximum(np.linalg.norm(d, axis=1), 1e-300)[:, None]
+    else:
+        keep, d = np.zeros(0, np.int8), np.zeros((0, 3))
     sweeps, _, n_act = project(n, c.i, c.j, c.frame, gap, c.ri, c.rj, model.body_dyn,
                                state.vel6, o.theta * o.dt, tol, o.overlap_sweeps, dx, lam,
-                               active)
+                               active, nl, model.link_i, model.link_j, keep, d)
     if n_act:
         state.position += dx
     return sweeps, n_act

@@ -79,6 +79,11 @@ def test_the_chain_pairs_each_step_with_the_one_before_by_seed():
     assert by[(0, 15e3, "loose beads")]["wire"] == "loose"
     assert by[(0, 15e3, "sand")]["wire"] == "none"
     assert by[(1, 2e3, "TexSol")]["wire"] == "elastic" and by[(1, 2e3, "TexSol")]["k"] == 1.0
+    assert "overlap_tol" not in by[(0, 15e3, "sand")]       # the tables run before it
+    # with and without the position correction: never one row, never one history
+    for tol, tag in ((0.005, "_ov0.005"), (None, "_ovnone")):
+        c = chain_cases([0], scale=0.3, overlap_tol=tol)[0]
+        assert c["overlap_tol"] == tol and c["name"].endswith(tag)
     q = {"sand": [20e3, 21e3, 22e3], "matched sand": [19e3, 20e3, 21.5e3],
          "loose beads": [19e3, 19.5e3, 21e3], "TexSol": [20e3, 21e3, None]}
     rows = []

@@ -55,7 +55,7 @@ def pack_body_dyn(kind, mass, inertia, radius, dof, line) -> np.ndarray:
 #: (0.005 is the measured choice, bench/bench_overlap.py), overlaps beyond this fraction of
 #: the smaller radius are pushed out after every step.  Not on by default yet: a pull-out's
 #: consolidation under a pressure-driven plate no longer comes to rest with it (kinetic
-#: energy 0.7 % of its peak after 4 000 steps, against the 0.1 % it reaches without), and a
+#: energy 1.2 % of its peak after 4 000 steps, against the 0.1 % it reaches without), and a
 #: pile of grains 1 000 times heavier than the beads under them needs 12 times the sweeps
 #: (docs/notes/2026-12-07-evening-drift-is-the-coupling-defect.md).
 OVERLAP_TOL = None

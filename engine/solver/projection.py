@@ -21,8 +21,7 @@ pushed out to exactly zero overlap; one whose overlap is within the tolerance is
 is (no correction, no cost beyond the one look at its gap).  Imposed walls do not move; a
 driven wall (pressure or force, LINE) moves along its line by its share (holding it
 instead threw a light bead pinched between the top plate and a grain out of a sample at
-4 m/s).  No body moves by more than :data:`MAX_SHIFT` of its radius in one step.  The
-wire's links keep their lengths to first order.
+4 m/s).  The wire's links keep their lengths to first order.
 """
 from __future__ import annotations
 
@@ -184,26 +183,5 @@ def correct_positions(model, state) -> tuple[int, int]:
                                state.vel6, o.theta * o.dt, tol, o.overlap_sweeps, dx, lam,
                                active, nl, model.link_i, model.link_j, keep, d)
     if n_act:
-        _clip(dx, model.body_radius, MAX_SHIFT)
         state.position += dx
     return sweeps, n_act
-
-
-#: Most a body moves in one step's correction, as a fraction of its radius.  A light bead
-#: wedged between grains that overlap it from opposite sides has no position that frees it
-#: from both; the sweeps then grow its pseudo-impulses without bound, and beads of a loose
-#: helix were thrown 0.1-0.28 m in 850 steps before this bound.  What the bound leaves is
-#: corrected at the next steps.
-MAX_SHIFT = 0.02
-
-
-@njit(cache=True)
-def _clip(dx, radius, frac):
-    for b in range(dx.shape[0]):
-        d2 = dx[b, 0] * dx[b, 0] + dx[b, 1] * dx[b, 1] + dx[b, 2] * dx[b, 2]
-        cap = frac * radius[b]
-        if d2 > cap * cap:
-            f = cap / np.sqrt(d2)
-            dx[b, 0] *= f
-            dx[b, 1] *= f
-            dx[b, 2] *= f

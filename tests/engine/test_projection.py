@@ -121,3 +121,4 @@ def test_the_first_step_penetration_is_pushed_out():
             run(m, s, 5, progress=False)
         assert r - s.position[1, 2] == pytest.approx(inside, abs=1e-12)
         assert s.vel6[1, 2] == 0.0
+

@@ -534,16 +534,38 @@ def _check_state(model: Model, s: State) -> None:
 
 
 # -- opening -----------------------------------------------------------------------------------
+def regular_file(path, max_bytes: int | None = None) -> str:
+    """``path`` as a string when it names a regular file (of at most ``max_bytes``);
+    FileNotFoundError, IsADirectoryError, or :class:`FormatError` on one line otherwise: a
+    FIFO, a device or a socket is refused before it is opened (opening a FIFO blocks until
+    a writer comes; reading /dev/zero never ends)."""
+    import stat as _stat
+
+    path = os.fspath(path)
+    try:
+        st = os.stat(path)
+    except FileNotFoundError:
+        raise FileNotFoundError(f"no such file: {path!r}") from None
+    if _stat.S_ISDIR(st.st_mode):
+        raise IsADirectoryError(21, "is a folder, not a file", path)
+    if not _stat.S_ISREG(st.st_mode):
+        kind = ("a FIFO" if _stat.S_ISFIFO(st.st_mode) else "a socket"
+                if _stat.S_ISSOCK(st.st_mode) else "a device" if _stat.S_ISCHR(st.st_mode)
+                or _stat.S_ISBLK(st.st_mode) else "not a regular file")
+        raise FormatError(f"{path}: {kind}, not a regular file: refused (it would be read "
+                          f"forever or block)")
+    if max_bytes is not None and st.st_size > max_bytes:
+        raise FormatError(f"{path}: {st.st_size} bytes, more than the {max_bytes} a file of "
+                          f"this kind may have: refused")
+    return path
+
+
 def _open_read(path) -> h5py.File:
     """Open an existing file for reading (SWMR read if a writer has it open or crashed).
 
     FileNotFoundError, IsADirectoryError, or :class:`FormatError` saying on one line why
     the file cannot be read: not HDF5 at all, locked by a program writing it, truncated."""
-    path = os.fspath(path)
-    if not os.path.exists(path):
-        raise FileNotFoundError(f"no such file: {path!r}")
-    if os.path.isdir(path):
-        raise IsADirectoryError(21, "is a folder, not a file", path)
+    path = regular_file(path)
     try:
         return h5py.File(path, "r")
     except OSError as e:

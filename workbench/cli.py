@@ -134,14 +134,23 @@ def _format_errors(e: ValidationError, cls, prefix="") -> list[str]:
     return [f"  {describe(err, cls, prefix)}" for err in e.errors()]
 
 
+#: The largest run file read [bytes]: a run file of the longest form is a few kB.
+RUN_FILE_MAX_BYTES = 1 << 20
+
+
 def load_config(path) -> tuple[RunConfig, BaseModel]:
     """Read and validate a TOML run file; ConfigError lists every problem, those of the
     top level and those of ``[parameters]`` together."""
     import tomllib
 
+    from engine.io import FormatError, regular_file
+
     try:
+        regular_file(path, max_bytes=RUN_FILE_MAX_BYTES)
         with open(path, "rb") as f:
             raw = tomllib.load(f)
+    except FormatError as e:
+        raise ConfigError(str(e))
     except FileNotFoundError:
         raise ConfigError(f"{path}: no such file")
     except IsADirectoryError:

@@ -151,6 +151,32 @@ def test_paths_that_cannot_be_used_are_one_line_with_exit_code_2(demo, tmp_path,
     assert not (tmp_path / "d").exists()              # the demo refused before writing
 
 
+def test_inputs_that_are_not_regular_files_are_refused_before_they_are_opened(tmp_path,
+                                                                               capsys):
+    """A FIFO (opening it would block until a writer comes), a device (/dev/zero would be
+    read until memory runs out) and an oversized run file are refused on one line with exit
+    code 2, for every command that reads a path and for a run file's ``sample``."""
+    import os
+
+    fifo = tmp_path / "f.h5"
+    os.mkfifo(fifo)
+    os.mkfifo(tmp_path / "f.toml")
+    (tmp_path / "s.toml").write_text(f'test = "cylinder_triaxial"\nscale = 0.05\n'
+                                     f'[parameters]\nsample = "{fifo}"\n')
+    (tmp_path / "big.toml").write_text("#" * (cli.RUN_FILE_MAX_BYTES + 1))
+    for args, says in ((["info", str(fifo)], "a FIFO, not a regular file"),
+                       (["render", str(fifo)], "a FIFO, not a regular file"),
+                       (["export", str(fifo), str(tmp_path / "o")], "a FIFO, not a regular"),
+                       (["run", str(tmp_path / "f.toml")], "a FIFO, not a regular file"),
+                       (["run", str(tmp_path / "s.toml")], "a FIFO, not a regular file"),
+                       (["run", "/dev/zero"], "a device, not a regular file"),
+                       (["info", "/dev/zero"], "a device, not a regular file"),
+                       (["run", str(tmp_path / "big.toml")], "more than the 1048576")):
+        assert cli.main(args) == 2, args
+        err = capsys.readouterr().err
+        assert says in err and "Traceback" not in err and err.count("\n") == 1, (args, err)
+
+
 def test_run_help_lists_every_parameter_with_its_range(capsys):
     with pytest.raises(SystemExit):
         cli.main(["run", "--help"])

@@ -143,6 +143,12 @@ def _status_of(path: str) -> str:
     without writing anything."""
     import h5py
 
+    from engine.io import FormatError, regular_file
+
+    try:
+        regular_file(path)
+    except (FormatError, OSError):
+        return "unreadable"
     try:
         with h5py.File(path, "r"):
             return "complete"

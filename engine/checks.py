@@ -94,7 +94,7 @@ def describe(err: dict, cls, prefix: str = "") -> str:
     name = loc[-1] if loc else None
     if typ == "extra_forbidden":
         names = ", ".join(owner.model_fields) if owner is not None else "?"
-        return f"{field} = {err.get('input')!r}: unknown field (the fields are: {names})"
+        return f"{field} = {short_repr(err.get('input'))}: unknown field (the fields are: {names})"
     rng = allowed(owner, name) if owner is not None and isinstance(name, str) else None
     if typ == "missing":
         return f"{field}: required" + (f", {rng}" if rng else "")
@@ -106,7 +106,17 @@ def describe(err: dict, cls, prefix: str = "") -> str:
         return field + text[len(str(name)):] if text.startswith(str(name)) else f"{field}: {text}"
     got = err.get("input")
     what = f"must be {rng}" if rng else msg[:1].lower() + msg[1:]
-    return f"{field} = {got!r}: {what}"
+    return f"{field} = {short_repr(got)}: {what}"
+
+
+def short_repr(value, limit: int = 80) -> str:
+    """``repr(value)`` cut to ``limit`` characters (a list of 200 000 numbers is not
+    printed whole in an error message)."""
+    text = repr(value)
+    if len(text) <= limit:
+        return text
+    size = f", {len(value)} items" if hasattr(value, "__len__") else ""
+    return f"{text[:limit]}… ({len(text)} characters{size})"
 
 
 def explain(e: ValidationError, cls, prefix: str = "") -> str:

@@ -159,6 +159,9 @@ def load_config(path) -> tuple[RunConfig, BaseModel]:
         raise ConfigError(f"{path}: not a text file (not UTF-8: {e.reason} at byte {e.start})")
     except tomllib.TOMLDecodeError as e:
         raise ConfigError(f"{path}: not valid TOML: {e}")
+    except RecursionError:
+        raise ConfigError(f"{path}: its tables or arrays are nested too deep to read (a run "
+                          f"file nests two levels)")
     return validate_config(raw, path)
 
 
@@ -369,7 +372,7 @@ def cmd_run(a) -> int:
     try:
         cfg, params = load_config(a.config)
     except ConfigError as e:
-        print(f"nscd run: {e}", file=sys.stderr)
+        print(bounded(f"nscd run: {e}"), file=sys.stderr)
         return 2
     out = Path(a.out or Path("out") / Path(a.config).stem)
     target = out / "run.h5"
@@ -614,12 +617,35 @@ def cluster_from_args(a):
     return cluster_spec(a.cluster or "local", options, a.workers)
 
 
+#: The most cases ``nscd sweep`` runs without ``--max-cases`` (a grid is refused above it
+#: before anything runs: 10⁶ cases were once accepted and ran silently for a minute).
+MAX_CASES = 1000
+
+#: The longest line of an error message printed [characters]; the rest is cut, and said.
+MESSAGE_MAX = 400
+
+
+def bounded(message: str, limit: int = MESSAGE_MAX) -> str:
+    """``message`` with each line cut to ``limit`` characters (saying how many were cut)."""
+    out = []
+    for line in str(message).splitlines() or [""]:
+        if len(line) > limit:
+            line = f"{line[:limit]}… ({len(line) - limit} more characters)"
+        out.append(line)
+    return "\n".join(out)
+
+
 def cmd_sweep(a) -> int:
     from workbench.campaign import EXPERIMENTS, sweep
 
     if a.test not in EXPERIMENTS:
         raise ValueError(f"unknown test {a.test!r}; choose one of {', '.join(EXPERIMENTS)}")
     grid = parse_grid(a.grid)
+    n = math.prod(len(v) for v in grid.values()) if grid else 1
+    if n > a.max_cases:
+        sizes = " × ".join(f"{k} {len(v)}" for k, v in grid.items())
+        raise ValueError(f"the grid has {n} cases ({sizes}), more than --max-cases "
+                         f"{a.max_cases}: give a larger --max-cases to run them all")
     where = cluster_from_args(a)
     out = Path(a.out or Path("out") / f"sweep_{a.test}.json")
     table = sweep(a.test, grid, where, out=out, retries=a.retries,
@@ -753,6 +779,9 @@ def parser() -> argparse.ArgumentParser:
     sw.add_argument("--out", help="JSON table (default out/sweep_<test>.json; .h5 beside it)")
     _cluster_arguments(sw, "LocalCluster")
     sw.add_argument("--retries", type=int, default=1, help="retries of a failed case (default 1)")
+    sw.add_argument("--max-cases", type=int, default=MAX_CASES,
+                    help=f"refuse a grid of more cases than this, before anything runs "
+                         f"(default {MAX_CASES})")
     sw.set_defaults(fn=cmd_sweep)
     return p
 
@@ -815,7 +844,7 @@ def main(argv=None) -> int:
         print(f"nscd {a.command}: stopped: {e}", file=sys.stderr)
         return 1
     except ValueError as e:
-        print(f"nscd {a.command}: {e}", file=sys.stderr)
+        print(bounded(f"nscd {a.command}: {e}"), file=sys.stderr)
         return 2
     except KeyboardInterrupt as e:   # Ctrl-C outside the steps (the engine stops those)
         print(f"nscd {a.command}: interrupted{f': {e}' if str(e) else ''}", file=sys.stderr)

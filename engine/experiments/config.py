@@ -489,7 +489,8 @@ class Recording(Strict):
 
 class CylinderRecording(Recording):
     history: str = "out/cylinder_triaxial.h5"
-    torus_strains: list[float] = [0.02, 0.05, 0.1]
+    torus_strains: list[float] = Field([0.02, 0.05, 0.1], max_length=100, description=(
+        "axial strains of the toroidal maps (at most 100)"))
 
 
 class BoxRecording(Recording):

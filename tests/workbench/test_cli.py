@@ -177,6 +177,32 @@ def test_inputs_that_are_not_regular_files_are_refused_before_they_are_opened(tm
         assert says in err and "Traceback" not in err and err.count("\n") == 1, (args, err)
 
 
+def test_unreasonable_work_and_input_are_refused_up_front_in_bounded_lines(tmp_path, capsys):
+    """A run file nested 5 000 deep (RecursionError in the TOML reader), a list of 40 000
+    strains (the message shows 80 characters of it and says how long it is; the run does
+    not start) and a sweep of 10⁶ cases (refused with its size and the override, before
+    any case runs): one bounded message each, exit code 2."""
+    head = 'test = "cylinder_triaxial"\nscale = 0.05\n[parameters]\n'
+    (tmp_path / "deep.toml").write_text(head + "x = " + "[" * 5000 + "]" * 5000 + "\n")
+    (tmp_path / "long.toml").write_text(head + "torus_strains = [" + ",".join(["0.01"] * 40000)
+                                        + "]\n")
+    grid = ["--grid", "seed=" + ",".join(map(str, range(1000))),
+            "--grid", "mu=" + ",".join(str(0.001 * k) for k in range(1, 1001))]
+    for args, says in ((["run", str(tmp_path / "deep.toml")], "nested too deep"),
+                       (["run", str(tmp_path / "long.toml")],
+                        "(240000 characters, 40000 items): list should have at most 100 items"),
+                       (["sweep", "cylinder_triaxial", *grid, "--scheduler", "serial",
+                         "--out", str(tmp_path / "s.json")],
+                        "the grid has 1000000 cases (seed 1000 × mu 1000), more than "
+                        "--max-cases 1000")):
+        assert cli.main(args) == 2, args
+        err = capsys.readouterr().err
+        assert says in err and "Traceback" not in err, (args, err[:300])
+        assert max(len(line) for line in err.splitlines()) <= cli.MESSAGE_MAX + 60
+    assert not (tmp_path / "s.json").exists()
+    assert cli.bounded("x" * 1000, 10) == "x" * 10 + "… (990 more characters)"
+
+
 def test_run_help_lists_every_parameter_with_its_range(capsys):
     with pytest.raises(SystemExit):
         cli.main(["run", "--help"])

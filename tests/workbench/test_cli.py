@@ -388,3 +388,18 @@ def test_sweep_and_paper_take_a_cluster_by_name(tmp_path, capsys, monkeypatch):
         cli.main(base + ["--cluster", "slurmx"])
     err = capsys.readouterr().err
     assert "--cluster: invalid choice: 'slurmx'" in err and "slurm" in err and "pbs" in err
+
+
+def test_the_example_run_files_validate_and_the_controls_are_twins():
+    """Every run file of examples/runs/ is accepted as it is (one per test), and the
+    loose-bead control differs from its TexSol run in the wire law alone."""
+    from pathlib import Path
+
+    files = sorted((Path(__file__).resolve().parents[2] / "examples" / "runs").glob("*.toml"))
+    loaded = {f.stem: cli.load_config(f) for f in files}
+    assert {c.test for c, _ in loaded.values()} == {
+        "cylinder_triaxial", "box_triaxial", "slope_deposit", "gravity_deposit", "pullout_test"}
+    (a, pa), (b, pb) = loaded["cylinder_triaxial"], loaded["cylinder_controls"]
+    assert a.model_dump(exclude={"wire"}) == b.model_dump(exclude={"wire"})
+    assert pa.model_dump() == pb.model_dump()
+    assert (a.wire.law, b.wire.law) == ("elastic", "loose")

@@ -178,5 +178,5 @@ THROUGH = {0: "went through plane {w} (its centre is behind the plane by more th
            3: "went through the top cap of cylinder {w}"}
 
 
-__all__ = ["overlap_advice", "max_overlap", "through_walls", "THROUGH", "reaction_gain", "energy_sources",
-           "ENERGY_WARN", "OVERLAP_WARN", "PhysicsWarning"]
+__all__ = ["overlap_advice", "max_overlap", "through_walls", "THROUGH", "reaction_gain",
+           "energy_sources", "ENERGY_WARN", "OVERLAP_WARN", "PhysicsWarning"]

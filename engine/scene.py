@@ -12,8 +12,8 @@ import numpy as np
 
 from . import laws as _laws
 from .contact.broadphase import build_pairs
-from .model import (OVERLAP_TOL, CAP_BOTTOM, CAP_TOP, CYLINDER, FREE, IMPOSED, LINE, PLANE, SPHERE, Drive,
-                    Model, Options, pack_body_dyn)
+from .model import (CAP_BOTTOM, CAP_TOP, CYLINDER, FREE, IMPOSED, LINE, OVERLAP_TOL, PLANE,
+                    SPHERE, Drive, Model, Options, pack_body_dyn)
 from .schedules import Schedule
 from .state import State
 

@@ -14,9 +14,9 @@ from ..analysis.wire import wire_chains
 from ..prep import Box, Cylinder, paper_sample
 from ..prep.samples import Sample
 from ..prep.relax import kinetic_energy
+from ..model import OVERLAP_TOL
 from ..scene import Scene
 from .config import DepositConfig
-from ..model import OVERLAP_TOL
 from .common import (RestCheckpoint, RestResult, check_bool, check_scale, compile_options,
                      deposit_laws, finish, rest_run, rest_summary, run_identity, run_meta,
                      sample_identity, solver_choice, wire_before_after, wire_law_or_default)

@@ -13,10 +13,10 @@ from ..analysis import slope_profile
 from ..analysis.wire import wire_chains
 from ..prep import Cylinder, slope_sample
 from ..prep.relax import kinetic_energy
+from ..model import OVERLAP_TOL
 from ..scene import Scene
 from .config import SlopeConfig
 from .start import start_of
-from ..model import OVERLAP_TOL
 from .common import (RestCheckpoint, RestResult, check_bool, check_scale, compile_options,
                      deposit_laws, finish, rest_run, rest_summary, run_identity, run_meta,
                      sample_identity, solver_choice, wire_before_after, wire_law_or_default)
@@ -257,8 +257,7 @@ def _slope_result(heap, done, cfg, st, chains0) -> SlopeResult:
                     max_iter=cfg.max_iter, relax=cfg.relax, anderson=cfg.anderson,
                     threads=cfg.threads, hot_sweeps=cfg.hot_sweeps,
                     chain_solve=cfg.chain_solve, contact_compliance=cfg.contact_compliance,
-                overlap_tol=cfg.overlap_tol,
-                    mu=cfg.mu,
+                    overlap_tol=cfg.overlap_tol, mu=cfg.mu,
                     mu_floor=cfg.mu_floor, mu_wire=cfg.mu_wire, seed=cfg.seed,
                     n_sand=int(st.sand_radii.size), n_beads=st.n_beads,
                     friction_angle_deg=math.degrees(math.atan(cfg.mu)),

@@ -55,10 +55,10 @@ from ..drivers import BoxFaces, Confinement, MembraneUpdater
 from ..schedules import FollowSchedules, Ramp, Servo
 from ..trigger import Updater
 from ..prep import Box, Cylinder, box_sample, cylinder_sample
+from ..model import OVERLAP_TOL
 from ..scene import Scene
 from .config import CONFIGS
 from .start import check_preparation, remove_group, start_of, without_wire
-from ..model import OVERLAP_TOL
 from .common import (ConfinementError, Recorder, Stages, TestResult, check_scale,
                      choose_rate, compile_options, finish, history_writer, run_meta,
                      solver_choice, wire_law_or_default)

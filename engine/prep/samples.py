@@ -116,25 +116,39 @@ class Sample:
                 f"deposit {i.get('deposit_time', 0):.2f} s)")
 
 
-def _deposit(container, radii, obstacles, seed, deposit_height_factor=1.5):
-    """(centres, radii) of the geometric deposit of ``radii`` in ``container`` made
-    ``deposit_height_factor`` times taller, around ``obstacles`` (:func:`geometric`)."""
-    # deposit in a taller mould: the sand's height is what it is, reported in info.  A
-    # small sample can leave its last grains no pocket below the mould's top (seen:
-    # box_sample(0.05, seed=2), 324 of 325 grains placed): the mould then grows by half.
-    for attempt in range(4):
-        factor = deposit_height_factor * 1.5 ** attempt
-        if isinstance(container, Cylinder):
-            mould = Cylinder(container.radius, container.height * factor, container.center)
-        else:
-            lo, hi = np.array(container.lo), np.array(container.hi)
-            hi[2] = lo[2] + (hi[2] - lo[2]) * factor
-            mould = Box(lo, hi)
+def _mould(container, height):
+    """``container`` from its floor, ``height`` [m] tall (a Cylinder or a Box)."""
+    if isinstance(container, Cylinder):
+        return Cylinder(container.radius, height, container.center)
+    lo, hi = np.array(container.lo), np.array(container.hi)
+    hi[2] = lo[2] + height
+    return Box(lo, hi)
+
+
+def _deposit(container, radii, obstacles, seed, heights):
+    """(centres, radii) of the geometric deposit of ``radii`` around ``obstacles``
+    (:func:`geometric`) in ``container`` made ``heights[0]`` tall, or, when not every grain
+    fits below its top, the next of ``heights`` [m]."""
+    for attempt, height in enumerate(heights):
         try:
-            return geometric(radii, mould, obstacles=obstacles, seed=seed)
+            return geometric(radii, _mould(container, height), obstacles=obstacles, seed=seed)
         except DepositError:
-            if attempt == 3:
+            if attempt == len(heights) - 1:
                 raise
+
+
+def _taller(container, deposit_height_factor=1.5):
+    """The heights :func:`_deposit` tries for a whole sample: the mould made
+    ``deposit_height_factor`` times taller, then by half again, three times (the sand's
+    height is what it is, reported in info; a small sample can leave its last grains no
+    pocket below the mould's top: seen, box_sample(0.05, seed=2), 324 of 325 grains
+    placed)."""
+    if isinstance(container, Cylinder):
+        height = container.height
+    else:
+        lo, hi = container.bounds()
+        height = hi[2] - lo[2]
+    return [height * (deposit_height_factor * 1.5 ** k) for k in range(4)]
 
 
 def _slab(region, z0, z1):
@@ -169,16 +183,10 @@ def _layered(container, wire_region, radii, *, wire, length, bead_radius, gap, s
         obstacles = (np.vstack([centers, beads]),
                      np.r_[rads, np.full(beads.shape[0], bead_radius)])
         mould_top = top + deposit_height_factor * H / layers
-        for attempt in range(4):
-            mould = _slab(container, z_floor, mould_top + (1.5 ** attempt - 1) * H / layers)
-            try:
-                c, r = geometric(radii[share], mould,
-                                 obstacles=obstacles if obstacles[1].size else None,
-                                 seed=seed + 1 + 7919 * k)
-                break
-            except DepositError:
-                if attempt == 3:
-                    raise
+        c, r = _deposit(container, radii[share], obstacles if obstacles[1].size else None,
+                        seed + 1 + 7919 * k,
+                        [mould_top + (1.5 ** attempt - 1) * H / layers - z_floor
+                         for attempt in range(4)])
         centers, rads = np.vstack([centers, c]), np.r_[rads, r]
         top = float((c[:, 2] + r).max())
         if not wire or k == layers - 1:
@@ -231,7 +239,8 @@ def _build(name, container, wire_region, radii, *, wire, wire_density, bead_radi
         if chains:
             b = np.vstack(chains)
             obstacles = (b, np.full(b.shape[0], bead_radius))
-        centers, r = _deposit(container, radii, obstacles, seed + 1, deposit_height_factor)
+        centers, r = _deposit(container, radii, obstacles, seed + 1,
+                              _taller(container, deposit_height_factor))
         t2 = time.perf_counter()
     if chains and wire_mode == "helix":
         top = float((centers[:, 2] + r).max())
@@ -402,7 +411,7 @@ def box_sample(scale: float = 1.0, *, wire: bool = True, wire_density: float | N
 def slope_sample(scale: float = 1.0, *, wire: bool = True, wire_density: float | None = None,
                  bead_radius: float | None = None, seed: int = 0, wire_mode: str = "isotropic",
                  helix_pitch: float | None = None, helix_inset: float | None = None,
-               build: str = "wire_first", layers: int | None = None) -> Sample:
+                 build: str = "wire_first", layers: int | None = None) -> Sample:
     """The slope-deposit sample (§3.1): Ø12 mm × 14 mm, 26 000 grains Ø0.2–0.6 mm and a wire
     at 400 km·m⁻³ (about 2 900 beads Ø0.2 mm), with no wire in an outer layer 2 d_max thick
     (at most a quarter of the radius).  ``wire_density=800e3`` gives the paper's TexSol(2).
@@ -494,7 +503,8 @@ def pullout_sample(scale: float = 1.0, *, bead_radius: float | None = None,
     solid = PULLOUT["solid_fraction"] * (box.volume - inner.shape[0] * 4 / 3 * math.pi * rw ** 3)
     radii = granulometry.uniform(q["d_min"], q["d_max"], volume=solid, seed=seed + 2)
     t0 = time.perf_counter()
-    centers, r = _deposit(box, radii, (inner, np.full(inner.shape[0], rw)), seed + 1)
+    centers, r = _deposit(box, radii, (inner, np.full(inner.shape[0], rw)), seed + 1,
+                          _taller(box))
     s = Sample(name="pullout", container=box, sand_centers=centers, sand_radii=r,
                wire=[chain], bead_radius=rw, gap=gap,
                wire_density=wire_length([inner]) / box.volume)

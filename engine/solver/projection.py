@@ -30,6 +30,7 @@ from numba import njit
 
 from ..laws import LOOSE_WIRE
 from ..model import DYN_INV_MASS, DYN_LINE, DYN_LX, DYN_LY, DYN_LZ
+from .kernels import _line_factor
 
 __all__ = ["correct_positions", "project"]
 
@@ -38,11 +39,7 @@ __all__ = ["correct_positions", "project"]
 def _share(body_dyn, b, nx, ny, nz):
     """The inverse mass of body b along n in the projection: a sphere's; a driven wall's
     (LINE) along its line, (n·l)² / m; 0 for an imposed one."""
-    im = body_dyn[b, DYN_INV_MASS]
-    if body_dyn[b, DYN_LINE] != 0.0:
-        d = nx * body_dyn[b, DYN_LX] + ny * body_dyn[b, DYN_LY] + nz * body_dyn[b, DYN_LZ]
-        return im * d * d
-    return im
+    return body_dyn[b, DYN_INV_MASS] * _line_factor(body_dyn, b, nx, ny, nz)
 
 
 @njit(cache=True)

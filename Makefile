@@ -15,7 +15,7 @@ APT_PARAVIEW := paraview python3-paraview xvfb xauth
 #  Playwright for Python through its executable_path: no browser download at run time).
 APT_BROWSER  := chromium
 
-.PHONY: install sysdeps test demo bench bench-peers clean
+.PHONY: install sysdeps test test-slow demo bench bench-peers clean
 
 $(STAMP): pyproject.toml
 	$(PYTHON) -m venv $(VENV)
@@ -46,9 +46,18 @@ sysdeps:
 	$$install >/dev/null || { $$SUDO apt-get update -qq && $$install >/dev/null; } || \
 	  echo "sysdeps: apt-get install failed; rendering, the ParaView test or the browser tests may not work"
 
-## make test: the test suite (numba compilation included), two workers
+## make test: the test suite without its long validation runs (numba compilation included),
+## two workers, a few minutes; prints its wall time
 test: $(STAMP) sysdeps
-	$(PY) -m pytest -n 2 -q --timeout 900 tests
+	@start=$$(date +%s); $(PY) -m pytest -n 2 -q --timeout 900 tests; rc=$$?; \
+	  echo "make test: $$(( $$(date +%s) - start )) s"; exit $$rc
+
+## make test-slow: the long validation runs (pytest -m slow: the physics controls, the paper
+## report, paper and layered preparations, resumes of killed runs, both viewer modes; about
+## 15 min on 2 cores); CI runs it after make test
+test-slow: $(STAMP) sysdeps
+	@start=$$(date +%s); $(PY) -m pytest -n 2 -q --timeout 900 -m slow tests; rc=$$?; \
+	  echo "make test-slow: $$(( $$(date +%s) - start )) s"; exit $$rc
 
 ## make demo: the main job, `nscd demo`: a small TexSol cylinder triaxial test ->
 ## out/demo/run.h5 (HDF5 history), PNG figures and snapshots, a ParaView series

@@ -7,9 +7,15 @@ import pytest
 
 ROOT = Path(__file__).resolve().parents[1]
 EXAMPLES = sorted(p.name for p in (ROOT / "examples").glob("0*.py") if p.name != "01_deposit.py")
+#: The examples and notebooks that take about 10 s or more (run by `make test-slow`).
+SLOW = {"03_cylinder_triaxial.py", "04_slope.py", "05_gravity_deposit.py", "explore.ipynb"}
 
 
-@pytest.mark.parametrize("name", EXAMPLES)
+def _marked(names):
+    return [pytest.param(n, marks=pytest.mark.slow) if n in SLOW else n for n in names]
+
+
+@pytest.mark.parametrize("name", _marked(EXAMPLES))
 def test_example_runs(name, tmp_path):
     r = subprocess.run([sys.executable, str(ROOT / "examples" / name), "--smoke", "--out",
                         str(tmp_path)], capture_output=True, text=True, timeout=600, cwd=ROOT)
@@ -27,7 +33,7 @@ def test_deposit_example_runs(tmp_path):
     assert (tmp_path / "deposit.png").exists()
 
 
-@pytest.mark.parametrize("nb", sorted(p.name for p in (ROOT / "notebooks").glob("*.ipynb")))
+@pytest.mark.parametrize("nb", _marked(sorted(p.name for p in (ROOT / "notebooks").glob("*.ipynb"))))
 def test_notebook_executes(nb, tmp_path):
     nbformat = pytest.importorskip("nbformat")
     nbclient = pytest.importorskip("nbclient")
@@ -39,6 +45,7 @@ def test_notebook_executes(nb, tmp_path):
     assert not errors
 
 
+@pytest.mark.slow
 def test_the_readmes_higher_up_example_runs(tmp_path):
     """The README's "Higher up" code, as it is printed: a sample built, relaxed in its
     mould, given to the cylinder test, a picture drawn."""

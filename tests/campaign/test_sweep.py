@@ -92,6 +92,7 @@ def test_local_cluster_matches_one_by_one(client, tmp_path):
                {k: v for k, v in b["result"].items() if k != "pid"}
 
 
+@pytest.mark.slow
 def test_box_triaxial_on_two_workers_matches_direct_calls(client, tmp_path):
     """The paper's box test at a tiny scale: the sweep on 2 workers gives bit-identical
     curves' end values to running each case here, one by one."""
@@ -111,6 +112,7 @@ def test_box_triaxial_on_two_workers_matches_direct_calls(client, tmp_path):
         assert Path(row["history"]).exists()
 
 
+@pytest.mark.slow
 def test_running_cases_report_their_stages(client, tmp_path):
     """Progress of a long sweep: each case's stages report (stage, steps done, total) —
     on a worker as Dask events to the client, in a serial run to the caller — and the last
@@ -214,6 +216,7 @@ def test_results_recomputed_after_the_run_are_kept_and_resumed(tmp_path):
         update_results(tmp_path / "none.json", {})
 
 
+@pytest.mark.slow
 def test_a_cluster_without_workers_fails_the_cases_instead_of_hanging(tmp_path):
     c = local_client(0)
     try:
@@ -357,6 +360,7 @@ if __name__ == "__main__":
 """
 
 
+@pytest.mark.slow
 def test_ctrl_c_on_a_local_cluster_keeps_the_finished_cases_quietly(tmp_path):
     """Ctrl-C in a terminal (SIGINT to the whole process group) while a LocalCluster sweep
     runs: the finished case stays done, the running ones stay pending (not failed), the

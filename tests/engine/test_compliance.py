@@ -100,6 +100,7 @@ def test_an_overlap_is_kept_by_the_rigid_law_and_released_by_the_spring():
     assert un == pytest.approx(d / 1e-4 / 1.01, rel=1e-9)
 
 
+@pytest.mark.slow
 def test_the_mould_deposit_converges_with_compliance_where_the_rigid_law_stagnates(tmp_path):
     # the first 25 steps of the mould deposit at scale 0.1 (seed 0), tol 1e-4: the rigid
     # law's sweeps wander and stop at max_iter (docs/speed.md, issue 31 §2); with ε = 0.01

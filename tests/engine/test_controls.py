@@ -113,6 +113,7 @@ def twins(tmp_path_factory):
     return out
 
 
+@pytest.mark.slow
 def test_a_wire_sample_and_its_loose_twin_are_measured_alike(twins):
     """The membrane wraps grains and beads: the TexSol sample and its loose-bead twin,
     prepared from one sample, start the loading on the same radius within 1 %, and their
@@ -173,6 +174,7 @@ def encased(tmp_path_factory):
                     str(tmp_path_factory.mktemp("helix")))
 
 
+@pytest.mark.slow
 def test_an_encased_column_is_stronger_than_its_loose_twin(encased):
     """The helix's hoop tension confines the column: the encased column carries more q
     than its loose twin at the end and over the second half of the loading.  The twins
@@ -193,6 +195,7 @@ def test_an_encased_column_gains_what_its_hoop_tension_predicts(encased):
     assert 0.7 <= encased["window_ratio"]["ring"] <= 1.3, encased["window_ratio"]
 
 
+@pytest.mark.slow
 def test_a_ring_at_rest_confines_its_core_as_its_closed_form_says(tmp_path):
     """The positive control without a failure's noise (bench/bench_overlap.py's helix at
     rest, scale 0.1, seed 0): an elastic helix one d_max deep, prestrained 5 % at the
@@ -211,6 +214,7 @@ def test_a_ring_at_rest_confines_its_core_as_its_closed_form_says(tmp_path):
     assert 0.7 <= r["ratio"] <= 1.3, r
 
 
+@pytest.mark.slow
 def test_a_wire_made_taut_at_the_loading_does_not_lengthen(tmp_path):
     """``wire_taut_at_loading``: every link's reference length becomes its length at the
     start of the loading, so a rigid wire's links can only shorten from there (g <= L,

@@ -97,6 +97,7 @@ def test_slope_deposit_stopped_early_keeps_its_result(tmp_path):
     assert "nan" in str(r)
 
 
+@pytest.mark.slow
 def test_slope_deposit(tmp_path):
     r = slope_deposit(0.02, dt=1e-4, steps=3000, history=str(tmp_path / "slope.h5"),
                       progress=False)
@@ -338,6 +339,7 @@ def test_an_interrupted_run_returns_what_it_computed(fn, kw, monkeypatch, tmp_pa
     assert load(r.history, frame=-1)[1].step == 30          # the state reached is kept
 
 
+@pytest.mark.slow
 def test_neighbour_contact_keeps_the_beads_of_slack_links_apart(tmp_path):
     """The deposit in the mould (box sample, scale 0.02) slackens wire links: by default some
     linked beads then overlap (21 % of the links end shorter than 2 r_w here, some beads
@@ -357,6 +359,7 @@ def test_neighbour_contact_keeps_the_beads_of_slack_links_apart(tmp_path):
     assert short[True].min() > 0.999
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("how, at", [("sigint", 250), ("crash", 250), ("sigint", "rest")])
 def test_a_deposit_resumed_from_its_checkpoint_ends_as_if_it_never_stopped(how, at,
                                                                            monkeypatch,
@@ -401,6 +404,7 @@ def test_a_deposit_resumed_from_its_checkpoint_ends_as_if_it_never_stopped(how, 
     assert r.convergence["resumed_from"] == [at if how == "sigint" else 200]
 
 
+@pytest.mark.slow
 def test_a_checkpoint_that_is_not_this_runs_is_not_resumed(monkeypatch, tmp_path):
     """A checkpoint left by a call with another friction, or by one on 2 NLGS threads, is
     not this run's: the run says so, removes it, and ends like a run that never had one.
@@ -437,6 +441,7 @@ def test_a_checkpoint_that_is_not_this_runs_is_not_resumed(monkeypatch, tmp_path
         gravity_deposit(0.02, history=str(tmp_path / "c.h5"), sample="box", resume="yes")
 
 
+@pytest.mark.slow
 def test_a_checkpoint_of_other_engine_code_is_resumed_with_a_warning(monkeypatch, tmp_path):
     """A checkpoint keeps the fingerprint of the engine's code (``engine_code``). Resumed
     under another (the engine edited between the two calls; here a patched fingerprint,
@@ -506,6 +511,7 @@ gravity_deposit(0.02, sample="box", progress=False, checkpoint_every=100, histor
 """
 
 
+@pytest.mark.slow
 def test_a_deposit_killed_with_sigkill_resumes_bit_for_bit(tmp_path):
     """The real end of a session: the process killed (SIGKILL) past its checkpoint of step
     300, its history left open by its SWMR writer; the run resumed in this process ends as

@@ -251,6 +251,7 @@ def test_free_bytes_follows_what_is_written_on_the_disk(small_disk):
     assert before - io.free_bytes(d) == pytest.approx(1 << 20, abs=8192)
 
 
+@pytest.mark.slow
 def test_a_second_nscd_run_on_the_same_out_is_refused_and_the_first_goes_on(tmp_path):
     """Two ``nscd run`` on one --out: the second (another mu, which would start afresh and
     remove the first's checkpoint) exits 2 naming the other run; the first ends normally
@@ -519,6 +520,7 @@ def _wire_box(law):
     return sc.compile(dt=5e-5, tol=1e-4, max_iter=2000)
 
 
+@pytest.mark.slow
 def test_reactions_never_add_kinetic_energy_and_a_step_that_does_is_reported(tmp_path,
                                                                              monkeypatch):
     """The work of a step's reactions on the free motion, R . (v+ + v_free)/2 (each step's

@@ -336,6 +336,7 @@ def test_geometric_deposit_polydisperse_dense_and_admissible():
     assert core_fraction(c, r, cyl, 4 * r.max()) >= 0.55
 
 
+@pytest.mark.slow
 def test_geometric_deposit_keeps_its_density_to_the_top_of_a_tall_pile():
     """The slope's granulometry (26 000 grains, Ø0.2-0.6 mm) in its Ø12 mm mould: every
     1 mm slice of the core (4 r_max from the side) up to 1 mm below the top holds a solid
@@ -396,6 +397,7 @@ def test_geometric_deposit_says_how_many_it_placed():
 
 # ---------------------------------------------------------------- relaxation, samples
 
+@pytest.mark.slow
 def test_cylinder_sample_small_scale_and_relaxation():
     # seed 1: on seed 0's deposit one grain ends alone on the floor against the side wall,
     # spinning at 35 rad/s about the vertical (a point contact has no spinning friction), and

@@ -100,6 +100,7 @@ def test_the_pull_follows_its_drive(short_run):
     assert r.scalars()["mu_star"] == r.mu_star
 
 
+@pytest.mark.slow
 def test_wire_friction_raises_the_pull_force(tmp_path):
     """With mu_wire = 0 the wire resists only by its beads pushing grains; friction can only
     add to that: the same sample (seed) pulled with mu_wire = 0.8 needs more force, at its

@@ -29,15 +29,22 @@ def curves(r):
 
 
 @pytest.fixture(scope="module")
-def paper_cyl(tmp_path_factory):
+def deposit(tmp_path_factory):
+    """The deposit the paper preparation runs for the cylinder test, run apart."""
+    d = tmp_path_factory.mktemp("deposit")
+    return gravity_deposit(sample=cylinder_sample(0.05, seed=0), history=str(d / "dep.h5"),
+                           **CYL_DEPOSIT)
+
+
+@pytest.fixture(scope="module")
+def paper_cyl(tmp_path_factory, deposit):
     """The cylinder test with the paper preparation, and the same deposit run apart."""
     d = tmp_path_factory.mktemp("paper")
     r = cylinder_triaxial(0.05, preparation="paper", history=str(d / "c.h5"), **CYL)
-    dep = gravity_deposit(sample=cylinder_sample(0.05, seed=0), history=str(d / "dep.h5"),
-                          **CYL_DEPOSIT)
-    return r, dep, d
+    return r, deposit, d
 
 
+@pytest.mark.slow
 def test_a_given_sample_runs_as_the_tests_own(tmp_path):
     """The sample the test would build, given: the same run, bit for bit (cylinder, box,
     slope)."""
@@ -59,6 +66,7 @@ def test_a_given_sample_runs_as_the_tests_own(tmp_path):
     assert np.array_equal(smp.sand_centers, x0)      # the caller's sample is not moved
 
 
+@pytest.mark.slow
 def test_the_paper_preparation_is_the_deposit_then_the_test(paper_cyl):
     """preparation="paper" = gravity_deposit of the geometric sample in its mould, then the
     test from its end state: the same run bit for bit as the two done apart, from the
@@ -75,6 +83,7 @@ def test_the_paper_preparation_is_the_deposit_then_the_test(paper_cyl):
     assert dep.settlement > 0 and abs(dep.wall_force / dep.weight - 1) < 0.01
 
 
+@pytest.mark.slow
 def test_the_box_paper_preparation_is_the_deposit_then_the_test(tmp_path):
     r = box_triaxial(0.05, preparation="paper", deposit_steps=400,
                      history=str(tmp_path / "b.h5"), **BOX)
@@ -84,6 +93,7 @@ def test_the_box_paper_preparation_is_the_deposit_then_the_test(tmp_path):
     assert np.array_equal(curves(r), curves(again))
 
 
+@pytest.mark.slow
 def test_the_layered_preparation_is_the_paper_one_of_a_layered_sample(tmp_path):
     """preparation="layered" = the paper preparation of the sample built in layers
     (build="layered"): bit for bit; a sample given with it is refused in one line."""
@@ -99,11 +109,11 @@ def test_the_layered_preparation_is_the_paper_one_of_a_layered_sample(tmp_path):
     assert "\n" not in str(e.value)
 
 
-def test_an_end_state_keeps_its_wire(paper_cyl):
+def test_an_end_state_keeps_its_wire(deposit):
     """The test's model takes the state's link reference lengths (not its current lengths:
     slack links stay slack), laws and broken links, and its particles' velocities; the
     mould's walls are left behind."""
-    _, dep, _ = paper_cyl
+    dep = deposit
     m0, s0 = io.load(dep.history)
     st = start_of("cylinder_triaxial", Cylinder, (m0, s0), None, wire=True)
     sc = Scene()
@@ -145,8 +155,8 @@ def test_linked_beads_of_a_state_may_overlap():
         Scene().add_wire(c, radius=1e-4, density=1400.0, law=law, reference_lengths=[1e-4])
 
 
-def test_bad_starts_are_refused_by_name(tmp_path, paper_cyl):
-    _, dep, _ = paper_cyl
+def test_bad_starts_are_refused_by_name(tmp_path, deposit):
+    dep = deposit
     h = str(tmp_path / "x.h5")
     cases = [
         (lambda: cylinder_triaxial(sample=box_sample(0.05), history=h, **CYL),
@@ -202,6 +212,7 @@ def test_bad_starts_are_refused_by_name(tmp_path, paper_cyl):
         state_of([1, 2])
 
 
+@pytest.mark.slow
 def test_a_users_own_scene_is_a_start(tmp_path):
     """A user's scene and state (sand poured in a box of planes, no wire) start the box test;
     the box is read from its side planes."""
@@ -247,6 +258,7 @@ def test_the_prestrain_is_set_at_the_loading():
     np.testing.assert_allclose(T, k * eps, rtol=1e-12)
 
 
+@pytest.mark.slow
 def test_a_prestrained_wire_starts_the_loading_in_tension(tmp_path):
     """With ε₀ = 2 % set at the loading, the wire's Weber stress over the first loading
     records is several times the unprestrained run's on the same sample."""

@@ -102,6 +102,7 @@ def test_beaded_string_frequency_error_is_second_order():
     assert 3.0 < e1 / e2 < 5.0
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("law", [laws.RigidRod(), laws.RigidWire()], ids=["rigid-rod", "rigid-wire"])
 def test_swinging_chain_keeps_its_length_and_energy(theta, law):
     """10 000 steps of a chain swinging about its fixed top bead: links keep their length
@@ -256,6 +257,7 @@ def wire_in_a_sand_pile():
     return s, beads
 
 
+@pytest.mark.slow
 def test_wire_in_a_sand_pile_is_slack_then_pulled():
     """A slack wire (ε₀ < 0) buried in a settling pile carries no tension; pulling one end
     out (the other fixed) puts every link in tension."""

@@ -325,6 +325,7 @@ def test_run_files_know_every_wire_law(tmp_path):
             cli.validate_config({"test": "gravity_deposit", "wire": wire})
 
 
+@pytest.mark.slow
 def test_a_run_file_starts_from_a_deposits_end_state(tmp_path):
     """``sample = "DEPOSIT.h5"`` in [parameters]: the test starts from the file's last state
     with its wire's own law (the same run as in Python); a [wire] law beside it is refused

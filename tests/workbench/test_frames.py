@@ -45,6 +45,7 @@ def test_parse_frames():
             frames.parse_frames(spec, 5)
 
 
+@pytest.mark.slow
 def test_frames_share_the_colour_scale_of_the_whole_series(history, tmp_path, monkeypatch):
     """The wire's fixed limits are (0, the largest tension of any frame drawn), read from
     the history's own link tensions; every frame is drawn with them and one camera box;
@@ -89,6 +90,7 @@ def model_spheres(history):
     return io.load_model(history).sphere_ids
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("suffix", [".mp4", ".gif"])
 def test_a_movie_has_every_frame_at_the_window_size(history, tmp_path, suffix):
     import imageio.v3 as iio
@@ -149,6 +151,7 @@ def test_nscd_render_frames_movie_and_bad_options(history, tmp_path, capsys, mon
 
 
 # -- what the history knows: the run's cylinder, the frame's title ---------------------------
+@pytest.mark.slow
 def test_torus_cylinder_is_the_runs_recorded_cylinder(triaxial, tmp_path, monkeypatch):
     """For a cylinder_triaxial history the torus preset's cylinder at a frame is the
     sample's cylinder the test recorded at that frame's step (records ``radius``,

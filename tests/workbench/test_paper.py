@@ -316,6 +316,7 @@ def test_fig13c_needs_a_mid_height_excess_beyond_the_seed_spread():
     assert _fig13c([None, dict(torus_strain=0.1)], (0, 1)) == (None, "runs missing")
 
 
+@pytest.mark.slow
 @pytest.mark.timeout(600)
 def test_nscd_paper_tiny(tmp_path, monkeypatch):
     out = tmp_path / "paper"
@@ -401,6 +402,7 @@ def test_sweep_grid_parsing():
     assert (a.scale, a.out, a.scheduler) == ("tiny", "x", None)
 
 
+@pytest.mark.slow
 def test_reuse_only_scores_the_runs_done_and_starts_none(tmp_path):
     """``reuse_only``: the report of the runs already done in OUT (here one of the two
     Fig. 7 seeds), the others listed as not run, nothing started."""
@@ -431,6 +433,7 @@ def test_reuse_only_scores_the_runs_done_and_starts_none(tmp_path):
     assert not (tmp_path / "empty" / "sweep.json").exists()
 
 
+@pytest.mark.slow
 def test_runs_starts_only_the_runs_named(tmp_path):
     """``runs``: of the two Fig. 7 seeds only the one named is started; the report scores
     it, lists the other as not run, and a second build naming the other reuses the first."""
@@ -460,6 +463,7 @@ def test_runs_starts_only_the_runs_named(tmp_path):
                         render=False, progress=False)
 
 
+@pytest.mark.slow
 def test_an_interrupted_paper_run_is_not_recorded_as_done_and_resumes(tmp_path, monkeypatch):
     """``paper_case`` (what ``nscd paper`` runs) refuses to turn an interrupted run into
     table values (the sweep then leaves it pending), and the case run again resumes."""

@@ -83,7 +83,7 @@ def browser():
         b.close()
 
 
-@pytest.fixture(scope="module", params=["server", "client"])
+@pytest.fixture(scope="module", params=[pytest.param("server", marks=pytest.mark.slow), "client"])
 def served(request, history):
     """The viewer of ``history`` in each rendering mode (the page's tests run in both)."""
     p, url = start_view(history, "--mode", request.param,
@@ -242,6 +242,7 @@ def test_page_shows_the_sample_and_the_time_slider_moves_it(page, history):
     wait_until(lambda: frame_of(page)[0] == 1, what="frame 2 after 'next'")
 
 
+@pytest.mark.slow
 @needs_browser
 def test_the_mouse_turns_the_view_and_play_runs_the_frames(page):
     slider_key(page, "frame-slider", "End")          # (the server keeps the last test's)
@@ -398,6 +399,7 @@ def test_screenshot_writes_the_view(page, history):
     assert path.parent.parent == Path(history).parent and path.parent.name.startswith("shots")
 
 
+@pytest.mark.slow
 @needs_browser
 def test_follow_shows_frames_of_a_run_being_written(browser, tmp_path):
     out = tmp_path / "live.h5"
@@ -482,6 +484,7 @@ def test_a_folder_of_runs_is_listed(tmp_path, history):
     assert runs[0].params == {"n_sand": 300}
 
 
+@pytest.mark.slow
 def test_notebook_viewer_cell_shows_the_app(tmp_path):
     """notebooks/explore.ipynb under nbclient: the viewer cell's output is the app (an iframe
     to its server), and that server answers while the kernel runs."""
@@ -516,6 +519,7 @@ def test_notebook_viewer_cell_shows_the_app(tmp_path):
     assert pngs, "the screenshot cell shows no picture"
 
 
+@pytest.mark.slow
 @needs_browser
 def test_a_folder_lists_its_runs_and_names_stay_text(browser, tmp_path, history):
     import shutil

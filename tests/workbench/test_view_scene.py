@@ -218,6 +218,7 @@ def test_a_checkpoint_is_shown_as_one_frame(tmp_path, source):
         RunSource(tmp_path / "nope.h5")
 
 
+@pytest.mark.slow
 def test_run_with_view_serves_the_run_being_written(tmp_path):
     cfg = tmp_path / "dep.toml"
     cfg.write_text('test = "gravity_deposit"\nscale = 0.02\n[parameters]\nsteps = 300\n'

@@ -769,7 +769,7 @@ def load(path, frame: int = -1, callables: dict | None = None) -> tuple[Model, S
         kind = _check_root(f, path)
         model = _read_model(f["model"], callables)
         if kind == "checkpoint":
-            if frame not in (-1, 0):
+            if isinstance(frame, (bool, np.bool_)) or frame not in (-1, 0):
                 raise _BadArgument(f"{path} is a checkpoint, which holds one state: frame="
                                    f"{frame!r} applies to history files only (use -1 or 0)")
             return model, _read_state(f["state"], model)
@@ -1506,11 +1506,7 @@ def frame_arrays(path, names, frames=None):
         fg = f["frames"]
         m = _frame_count(fg)
         start, count = fg["contact_start"][:m], fg["contact_count"][:m]
-        ks = list(range(m)) if frames is None else [int(k) for k in frames]
-        bad = [k for k in ks if not 0 <= k < m]
-        if bad:
-            raise _BadArgument(f"frame_arrays: frames {bad[:5]} out of range: the history "
-                               f"holds frames 0..{m - 1}")
+        ks = list(range(m)) if frames is None else [_frame_of(k, m, False) for k in frames]
         for k in ks:
             out = {}
             for n in names:
@@ -1524,6 +1520,18 @@ def frame_arrays(path, names, frames=None):
         f.close()
 
 
+def _frame_of(frame, m: int, negative: bool = True) -> int:
+    """The index in [0, m) of frame ``frame`` of a history of ``m`` frames (counted from
+    the end when negative, if ``negative``); anything but an integer in range (a bool, a
+    float, a string) refused by name (True was read as frame 1)."""
+    lo = -m if negative else 0
+    if (isinstance(frame, (bool, np.bool_)) or not isinstance(frame, (int, np.integer))
+            or not lo <= frame < m):
+        raise _BadArgument(f"frame = {frame!r}: must be an integer in [{lo}, {m - 1}] (the "
+                           f"history holds {m} frames)")
+    return int(frame) % m
+
+
 def _state_from_frame(f, model: Model, frame: int, contacts: bool = True) -> State:
     """A State rebuilt from a history frame (no warm start: not a restart point);
     ``contacts=False``: without the frame's contacts (none are read)."""
@@ -1535,10 +1543,7 @@ def _state_from_frame(f, model: Model, frame: int, contacts: bool = True) -> Sta
     m = _frame_count(fg)
     if m == 0:
         raise FormatError("the history holds no frame")
-    try:
-        k = range(m)[frame]
-    except (IndexError, TypeError):
-        raise _BadArgument(f"frame must be an integer in [{-m}, {m - 1}], got {frame!r}") from None
+    k = _frame_of(frame, m)
     nb = model.n_bodies
     vel6 = np.zeros((nb, 6))
     vel6[:, :3], vel6[:, 3:] = fg["velocity"][k], fg["spin"][k]

@@ -148,7 +148,8 @@ def load_config(path) -> tuple[RunConfig, BaseModel]:
     try:
         regular_file(path, max_bytes=RUN_FILE_MAX_BYTES)
         with open(path, "rb") as f:
-            raw = tomllib.load(f)
+            text = f.read().decode("utf-8-sig")      # a byte-order mark some editors write
+        raw = tomllib.loads(text)
     except FormatError as e:
         raise ConfigError(str(e))
     except FileNotFoundError:
@@ -376,15 +377,50 @@ def cmd_run(a) -> int:
         return 2
     out = Path(a.out or Path("out") / Path(a.config).stem)
     target = out / "run.h5"
-    if a.force and target.is_file():
-        from engine.io import FormatError, file_content
+    from engine.io import lock_history
 
-        try:
-            kind = file_content(target)[0]
-        except (FormatError, OSError):
-            kind = None
-        if kind != "history":        # a history is the run's own: resumed or replaced
+    out.mkdir(parents=True, exist_ok=True)
+    lock = lock_history(target)         # (a run writing there is refused before anything moves)
+    try:
+        return _run_into(a, cfg, params, out, target)
+    finally:
+        lock.release()
+
+
+def keep_earlier_run(target: Path, resume: bool, force: bool) -> Path | None:
+    """Before ``nscd run`` writes ``target``: a history already there that this run does
+    not go on from (no ``resume``, or no checkpoint beside it) is kept as ``run.N.h5`` (the
+    first free N) and its new name returned, unless ``force`` (then it is replaced); a file
+    that is not a history is removed with ``force`` (and refused by the writer without)."""
+    from engine.experiments.common import RestCheckpoint
+    from engine.io import FormatError, file_content
+
+    if not target.is_file():
+        return None
+    try:
+        kind = file_content(target)[0]
+    except (FormatError, OSError):
+        kind = None
+    if kind != "history":
+        if force:
             target.unlink()
+        return None
+    checkpoint = target.with_name(target.stem + RestCheckpoint.SUFFIX)
+    if (resume and checkpoint.is_file()) or force:
+        return None                     # resumed from there, or replaced as asked
+    n = 1
+    while (kept := target.with_name(f"{target.stem}.{n}{target.suffix}")).exists():
+        n += 1
+    os.replace(target, kept)
+    return kept
+
+
+def _run_into(a, cfg, params, out: Path, target: Path) -> int:
+    """:func:`cmd_run` once the folder is this process's."""
+    kept = keep_earlier_run(target, bool(getattr(params, "resume", False)), a.force)
+    if kept is not None:
+        print(f"nscd run: the earlier {target.name} is kept as {kept} (--force replaces it)",
+              flush=True)
     beside = None
     if a.view:
         from .view.live import ViewerBeside
@@ -636,7 +672,7 @@ def bounded(message: str, limit: int = MESSAGE_MAX) -> str:
 
 
 def cmd_sweep(a) -> int:
-    from workbench.campaign import EXPERIMENTS, sweep
+    from workbench.campaign import EXPERIMENTS, sweep, table_path
 
     if a.test not in EXPERIMENTS:
         raise ValueError(f"unknown test {a.test!r}; choose one of {', '.join(EXPERIMENTS)}")
@@ -647,7 +683,7 @@ def cmd_sweep(a) -> int:
         raise ValueError(f"the grid has {n} cases ({sizes}), more than --max-cases "
                          f"{a.max_cases}: give a larger --max-cases to run them all")
     where = cluster_from_args(a)
-    out = Path(a.out or Path("out") / f"sweep_{a.test}.json")
+    out = table_path(a.out or Path("out") / f"sweep_{a.test}.json", a.test)
     table = sweep(a.test, grid, where, out=out, retries=a.retries,
                   fixed={"history_dir": str(out.with_suffix("")) + "_runs"},
                   n_workers=a.workers)
@@ -680,8 +716,8 @@ def parser() -> argparse.ArgumentParser:
                         "as the run has a frame, print its URL, and keep it after the run "
                         "until Ctrl-C")
     r.add_argument("--force", action="store_true",
-                   help="replace OUT/run.h5 even when it is not an nscd-workbench history "
-                        "(by default such a file is kept and the run refused)")
+                   help="replace OUT/run.h5 (by default an earlier run's history is kept "
+                        "as OUT/run.N.h5, and a file that is not a history refuses the run)")
     r.set_defaults(fn=cmd_run)
     g = sub.add_parser("render", help="render frames of a run to PNG, or a movie (off-screen)",
                        description="Draw frames of a history (or a checkpoint) off-screen. "
@@ -776,7 +812,8 @@ def parser() -> argparse.ArgumentParser:
     sw.add_argument("--grid", action="append", metavar="NAME=V1,V2",
                     help="a parameter and its values (repeat; the cases are the product); "
                          "wire=elastic|rigid|none and k=... [N] choose the wire law")
-    sw.add_argument("--out", help="JSON table (default out/sweep_<test>.json; .h5 beside it)")
+    sw.add_argument("--out", help="JSON table, or a folder to put sweep_<test>.json in "
+                    "(default out/sweep_<test>.json; .h5 and the runs' folder beside it)")
     _cluster_arguments(sw, "LocalCluster")
     sw.add_argument("--retries", type=int, default=1, help="retries of a failed case (default 1)")
     sw.add_argument("--max-cases", type=int, default=MAX_CASES,

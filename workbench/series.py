@@ -61,6 +61,8 @@ from __future__ import annotations
 
 import base64
 import os
+import re
+import warnings
 from pathlib import Path
 from xml.sax.saxutils import quoteattr
 
@@ -196,6 +198,8 @@ class SeriesWriter:
         ``fields``: more field data for every part of this frame, ``{name: number or
         array}`` (numbers; one tuple of ``array.size`` components), besides ``step``,
         ``time`` and the group names (:func:`frame_fields`)."""
+        if self.frames == 0:
+            self._clear_older()
         t = float(state.time)
         fd = {**frame_fields(model, state), **(fields or {})}
         self._fields.update(fd)
@@ -216,6 +220,20 @@ class SeriesWriter:
                     self._sizes["bead_radius"] = float(model.body_radius[wire].mean())
         self.frames += 1
         self._write_pvd()
+
+    def _clear_older(self) -> None:
+        """Before the first frame: remove an older series of the same name in the folder
+        (its VTUs by their names, ``<name>[_part]_NNNNNN.vtu``, and its PVD), so that a
+        shorter series does not leave the older one's last frames beside it; a warning
+        says how many files went."""
+        pattern = re.compile(rf"{re.escape(self.name)}(_(contacts|wire|walls))?_\d{{6}}\.vtu")
+        old = [p for p in self.out_dir.iterdir() if pattern.fullmatch(p.name)]
+        for p in old:
+            p.unlink()
+        if old or self.pvd_path.exists():
+            self.pvd_path.unlink(missing_ok=True)
+            warnings.warn(f"{self.out_dir}: replaced the older series {self.name!r} there "
+                          f"({len(old)} VTU files and its {self.name}.pvd)", stacklevel=3)
 
     def _track(self, key, part) -> None:
         for name in SCRIPT_RANGES.get(key, ()):

@@ -331,6 +331,27 @@ def test_nscd_run_keeps_a_foreign_run_h5_unless_forced(tmp_path):
     assert io.read_history(out / "run.h5").step[-1] == 20
 
 
+def test_nscd_run_keeps_an_earlier_run_under_a_new_name(tmp_path, capsys):
+    """A finished run.h5 is never replaced in silence: a second run (with other parameters,
+    resume = true or not: there is no checkpoint to go on from) keeps it as run.1.h5,
+    then run.2.h5, and says so; --force replaces it."""
+    from workbench.cli import main
+
+    cfg = tmp_path / "a.toml"
+    out = tmp_path / "out"
+    for k, (steps, extra) in enumerate([(20, ""), (30, ""), (40, "resume = true\n")]):
+        cfg.write_text('test = "gravity_deposit"\nscale = 0.02\nseed = 0\n[parameters]\n'
+                       f'steps = {steps}\nmax_nonconverged = 1.0\n{extra}')
+        assert main(["run", str(cfg), "--out", str(out)]) == 0
+        said = capsys.readouterr().out
+        assert (f"the earlier run.h5 is kept as {out / f'run.{k}.h5'}" in said) == (k > 0)
+    assert [io.read_history(out / n).step[-1] for n in ("run.1.h5", "run.2.h5", "run.h5")] \
+        == [20, 30, 40]
+    assert main(["run", str(cfg), "--out", str(out), "--force"]) == 0
+    assert "kept as" not in capsys.readouterr().out
+    assert not (out / "run.3.h5").exists()
+
+
 def test_a_corrupt_history_does_not_remove_a_good_checkpoint(tmp_path, monkeypatch):
     """A deposit stopped by Ctrl-C leaves its checkpoint; its history then gets corrupted:
     the resume refuses (ValueError naming both files) and the checkpoint is kept."""

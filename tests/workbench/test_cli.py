@@ -404,3 +404,36 @@ def test_the_example_run_files_validate_and_the_controls_are_twins():
     assert a.model_dump(exclude={"wire"}) == b.model_dump(exclude={"wire"})
     assert pa.model_dump() == pb.model_dump()
     assert (a.wire.law, b.wire.law) == ("elastic", "loose")
+
+
+def test_a_run_file_with_a_byte_order_mark_reads_as_without(tmp_path):
+    """Some editors start a UTF-8 file with a byte-order mark; TOML read it as an invalid
+    statement at line 1, column 1."""
+    text = 'test = "box_triaxial"\nscale = 0.05\n[parameters]\npressure = 2e3\n'
+    p = tmp_path / "bom.toml"
+    p.write_bytes("\ufeff".encode() + text.encode())
+    q = tmp_path / "plain.toml"
+    q.write_text(text)
+    assert cli.load_config(p)[1] == cli.load_config(q)[1]
+    assert cli.load_config(p)[1].pressure == 2e3
+
+
+def test_sweep_out_a_folder_puts_the_table_inside_it(tmp_path, monkeypatch, capsys):
+    """--out DIR (an existing folder) writes DIR/sweep_<test>.json and the runs beside it
+    inside DIR (it wrote DIR.json beside the folder); a table path not ending in .json is
+    refused in one line."""
+    from workbench import campaign
+
+    got = []
+    monkeypatch.setattr(campaign, "sweep", lambda test, grid, where, **kw: got.append(kw)
+                        or campaign.SweepTable())
+    d = tmp_path / "results"
+    d.mkdir()
+    assert cli.main(["sweep", "box_triaxial", "--grid", "seed=0", "--out", str(d)]) == 0
+    assert got[-1]["out"] == d / "sweep_box_triaxial.json"
+    assert got[-1]["fixed"]["history_dir"] == str(d / "sweep_box_triaxial_runs")
+    capsys.readouterr()
+    assert cli.main(["sweep", "box_triaxial", "--grid", "seed=0", "--out",
+                     str(tmp_path / "t.csv")]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "the sweep's table is a JSON file" in err

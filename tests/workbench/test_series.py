@@ -213,3 +213,24 @@ def test_state_script_is_written_beside_the_pvd(tmp_path):
     off.write(model, state)
     off.close()
     assert not (tmp_path / "x" / "open_in_paraview.py").exists()
+
+
+def test_a_shorter_series_replaces_an_older_one_of_the_same_name(tmp_path):
+    """Writing a series where an older, longer one of the same name lies leaves no frame of
+    the older one behind (its VTUs would look like the new series' last frames), says so
+    in a warning (three parts a frame here: beads, contacts, walls), and touches no other series or file of the folder."""
+    model, state = _scene()
+    w = SeriesWriter(tmp_path, name="s")
+    for _ in range(3):
+        w.write(model, state)
+    other = SeriesWriter(tmp_path, name="t")
+    other.write(model, state)
+    (tmp_path / "s_notes.txt").write_text("mine")
+    with pytest.warns(UserWarning, match=r"replaced the older series 's' there \(9 VTU"):
+        again = SeriesWriter(tmp_path, name="s")
+        again.write(model, state)
+    names = sorted(p.name for p in tmp_path.iterdir())
+    assert [n for n in names if n.startswith("s_")] == [
+        "s_000000.vtu", "s_contacts_000000.vtu", "s_notes.txt", "s_walls_000000.vtu"]
+    assert len(read_pvd(again.pvd_path)) == 3
+    assert "t_000000.vtu" in names and len(read_pvd(other.pvd_path)) == 3

@@ -33,10 +33,10 @@ by name), :mod:`workbench.campaign.runner` (the sweep on Dask or in this process
 from .cases import case_id, case_key, expand_grid
 from .clusters import CLUSTERS, ClusterSpec, cluster_spec, local_client
 from .experiments import EXPERIMENTS, CaseInterrupted, not_interrupted, scalars_of
-from .runner import run_case, sweep
+from .runner import run_case, sweep, table_path
 from .table import TABLE_VERSION, SweepTable, load_table, update_results, write_hdf5
 
 __all__ = ["sweep", "SweepTable", "expand_grid", "case_key", "case_id", "run_case",
            "scalars_of", "load_table", "EXPERIMENTS", "local_client", "CaseInterrupted",
            "not_interrupted", "update_results", "write_hdf5", "TABLE_VERSION", "CLUSTERS",
-           "ClusterSpec", "cluster_spec"]
+           "ClusterSpec", "cluster_spec", "table_path"]

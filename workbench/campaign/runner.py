@@ -122,6 +122,21 @@ def _run_case(experiment, params, fixed, report):
 
 # ------------------------------------------------------------------ the sweep
 
+def table_path(out, name: str) -> Path:
+    """Where a sweep's JSON table goes for ``out``: inside an existing folder as
+    ``sweep_<name>.json``; a path ending in ``.json`` as it is; a path without a suffix with
+    ``.json`` added.  Another suffix is refused (ValueError): the table is JSON."""
+    out = Path(out)
+    if out.is_dir():
+        return out / f"sweep_{name}.json"
+    if out.suffix == "":
+        return out.with_suffix(".json")
+    if out.suffix != ".json":
+        raise ValueError(f"out = {str(out)!r}: the sweep's table is a JSON file: give a path "
+                         f"ending in .json, or a folder to put sweep_{name}.json in")
+    return out
+
+
 def sweep(experiment, grid, client=None, *, out="out/sweep.json", retries: int = 1,
           fixed: dict | None = None, n_workers: int = 2, hdf5: bool = True,
           progress: bool = True, no_worker_timeout: float | None = None,
@@ -188,9 +203,7 @@ def sweep(experiment, grid, client=None, *, out="out/sweep.json", retries: int =
     fixed = dict(fixed or {})
     if isinstance(experiment, str):
         check_paper_cases(name, cases, fixed)
-    out = Path(out)
-    if out.suffix != ".json":
-        out = out.with_suffix(".json")
+    out = table_path(out, name)
     old = load_table(out)
     by_key = {r["key"]: r for r in old.rows}
     rows, todo = [], []

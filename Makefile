@@ -46,22 +46,24 @@ sysdeps:
 	$$install >/dev/null || { $$SUDO apt-get update -qq && $$install >/dev/null; } || \
 	  echo "sysdeps: apt-get install failed; rendering, the ParaView test or the browser tests may not work"
 
-## make test: the test suite without its long validation runs (numba compilation included),
-## two workers, a few minutes; prints its wall time
+## make test: the test suite without its long validation runs, two workers, a few minutes;
+## first the engine's kernels compiled side by side into numba's cache (engine/warm.py: on a
+## fresh clone about a minute, then a second); prints its wall time
 test: $(STAMP) sysdeps
-	@start=$$(date +%s); $(PY) -m pytest -n 2 -q --timeout 900 tests; rc=$$?; \
-	  echo "make test: $$(( $$(date +%s) - start )) s"; exit $$rc
+	@start=$$(date +%s); $(PY) -m engine.warm && $(PY) -m pytest -n 2 -q --timeout 900 tests; \
+	  rc=$$?; echo "make test: $$(( $$(date +%s) - start )) s"; exit $$rc
 
 ## make test-slow: the long validation runs (pytest -m slow: the physics controls, the paper
 ## report, paper and layered preparations, resumes of killed runs, both viewer modes; about
 ## 15 min on 2 cores); CI runs it after make test
 test-slow: $(STAMP) sysdeps
-	@start=$$(date +%s); $(PY) -m pytest -n 2 -q --timeout 900 -m slow tests; rc=$$?; \
+	@start=$$(date +%s); $(PY) -m engine.warm && $(PY) -m pytest -n 2 -q --timeout 900 -m slow tests; rc=$$?; \
 	  echo "make test-slow: $$(( $$(date +%s) - start )) s"; exit $$rc
 
 ## make demo: the main job, `nscd demo`: a small TexSol cylinder triaxial test ->
 ## out/demo/run.h5 (HDF5 history), PNG figures and snapshots, a ParaView series
 demo: $(STAMP) sysdeps
+	$(PY) -m engine.warm
 	$(VENV)/bin/nscd demo --out out/demo
 
 ## make bench: every benchmark (about 2 h 30 min on 2 idle cores, 1-2 h of it the two

@@ -130,6 +130,7 @@ def test_a_wire_sample_and_its_loose_twin_are_measured_alike(twins):
     assert twins["loose"].params["wire_law"] == "LooseWire(prestrain=0.0)"
 
 
+@pytest.mark.slow
 def test_beads_removed_at_the_loading_stay_out(twins):
     r = twins["at_loading"]
     assert r.params["remove_beads"] == "at_loading"
@@ -145,6 +146,7 @@ def test_beads_removed_at_the_loading_stay_out(twins):
     assert s["radius"] == pytest.approx(twins["wire"].extra["start"]["radius"], rel=0.02)
 
 
+@pytest.mark.slow
 def test_beads_removed_after_the_deposit_give_a_sand_run(twins):
     r = twins["after_deposit"]
     assert r.params["wire"] is False and r.params["remove_beads"] == "after_deposit"
@@ -189,6 +191,7 @@ def test_an_encased_column_is_stronger_than_its_loose_twin(encased):
     "the closed form is not met: measured Δq over the second half of the loading, at scale "
     "0.1 seed 0, is 1.7-1.9 times K_p T/(R s) (and 0.4-0.7 times at scale 0.3 with the "
     "helix one d_max deep); docs/reinforcement.md, 'The positive control'"))
+@pytest.mark.slow
 def test_an_encased_column_gains_what_its_hoop_tension_predicts(encased):
     """Δσ₃ = T/(R s), Δq ≈ K_p Δσ₃ (K_p = σ₁/σ₃ of the loose column), within ±30 %, from
     the measured T and R over the second half of the loading."""

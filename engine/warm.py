@@ -4,7 +4,7 @@ The kernels are compiled at their first call (``cache=True``: once per machine a
 then loaded in a fraction of a second).  On a fresh clone the first run of anything pays
 that compilation: about 100 s for a cylinder test, most of it in two kernels (the NLGS loop
 with re-sweeps, about 45 s, and the geometric deposit of the sample preparation, about
-45 s).  Two test workers that start together compile the same kernels twice, side by side.
+40 s), 45 s more for the chain solve of the wires.  Two test workers that start together compile the same kernels twice, side by side.
 
 ``python -m engine.warm`` runs small scenes that reach the common kernels, each in its own
 process, ``--jobs`` at a time (default: the CPU count, at most 4), so that each kernel is
@@ -73,6 +73,13 @@ def _solver_scene():
     _scene(laws.RigidWire())
 
 
+def _chains():
+    """The chain solve of the wires (``chain_solve=True``)."""
+    from . import laws
+
+    _scene(laws.RigidWire(), chain_solve=True)
+
+
 def _triaxial():
     """A small cylinder triaxial test (membrane, pressure-driven plates, analysis)."""
     from .experiments import cylinder_triaxial
@@ -83,9 +90,9 @@ def _triaxial():
 #: The scenes in stages: those of a stage side by side (each a process of its own, the
 #: longest first), the next stage once they are all done (the triaxial test then loads the deposit's and the
 #: solver's kernels instead of compiling them a second time).
-STAGES = (("solver_tests", "deposit", "solver_scene"), ("triaxial",))
+STAGES = (("solver_tests", "chains", "deposit", "solver_scene"), ("triaxial",))
 SCENES = {"deposit": _deposit, "solver_tests": _solver_tests, "solver_scene": _solver_scene,
-          "triaxial": _triaxial}
+          "chains": _chains, "triaxial": _triaxial}
 
 
 def _one(name):

@@ -200,3 +200,12 @@ def signal_child(proc, sig, *, before=None, timeout=60):
             proc.kill()
             proc.wait()
     return got, sent, out, err
+
+
+def threaded(*threads):
+    """Parametrize values of ``threads`` > 1 marked slow: the threaded sweep and detection
+    kernels take 70-100 s to compile on a fresh clone, which ``make test`` leaves to
+    ``make test-slow``."""
+    import pytest
+
+    return [pytest.param(t, marks=pytest.mark.slow) for t in threads]

@@ -14,6 +14,7 @@ def test_anderson_is_validated(bad):
     assert_option_refused("anderson", bad)
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("threads", [1, 2])
 @pytest.mark.parametrize("at", [150, 700])
 def test_anderson_step_matches_plain_within_tolerance(pile_states, at, threads):
@@ -25,6 +26,7 @@ def test_anderson_step_matches_plain_within_tolerance(pile_states, at, threads):
     same_converged_step(tight, tight.with_options(anderson=4, threads=threads), states[at])
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("threads", [1, 2])
 def test_anderson_needs_fewer_sweeps_on_a_settled_pile(pile_states, threads):
     """On the settled pile, the sweeps to tol 1e-8 drop by at least 2x against plain
@@ -38,6 +40,7 @@ def test_anderson_needs_fewer_sweeps_on_a_settled_pile(pile_states, threads):
     assert b.iterations * 2 <= a.iterations, (a.iterations, b.iterations)
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("threads", [1, 2])
 def test_anderson_with_wire_and_driven_wall(threads):
     """Links (mixed with the contacts, unilateral ones projected on λ >= 0) and a
@@ -46,6 +49,7 @@ def test_anderson_with_wire_and_driven_wall(threads):
     assert_same_wire_lid_trajectory(dict(anderson=4, threads=threads))
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("threads", [1, 2])
 def test_anderson_is_deterministic(pile_states, threads):
     model, states = pile_states

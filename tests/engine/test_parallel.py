@@ -88,6 +88,7 @@ def test_cell_order_cache_is_a_function_of_the_last_build():
 
 
 # -- parallel: same physics --------------------------------------------------------------
+@pytest.mark.slow
 @pytest.mark.parametrize("at", [150, 700])
 @pytest.mark.parametrize("threads", [2, 3, 4])
 def test_parallel_step_matches_serial_within_tolerance(pile_states, threads, at):
@@ -105,6 +106,7 @@ def test_parallel_step_matches_serial_within_tolerance(pile_states, threads, at)
     assert np.array_equal(a_state.contacts_buf.key[:k], b_state.contacts_buf.key[:k])
 
 
+@pytest.mark.slow
 def test_parallel_contact_impulses_equal_serial_on_an_isostatic_column():
     """A column of spheres on a floor (unique impulses): every contact impulse equals the
     serial one within the solver tolerance."""
@@ -126,6 +128,7 @@ def test_parallel_contact_impulses_equal_serial_on_an_isostatic_column():
     np.testing.assert_allclose(out[1], out[0], rtol=1e-8, atol=1e-8 * np.abs(out[0]).max())
 
 
+@pytest.mark.slow
 def test_parallel_pile_floor_reaction_is_the_weight():
     """A 300-grain pile deposited on 2 threads: at rest the floor carries the whole weight
     (rel 1e-3, as in test_contact_physics)."""
@@ -144,6 +147,7 @@ def test_parallel_pile_floor_reaction_is_the_weight():
     assert c.normal_force[c.j == floor].sum() == pytest.approx(weight, rel=1e-3)
 
 
+@pytest.mark.slow
 def test_parallel_is_deterministic():
     model, state = fcc_packing(tol=1e-4, max_iter=300, threads=2)
     other = state.copy()
@@ -153,6 +157,7 @@ def test_parallel_is_deterministic():
     assert np.array_equal(state.vel6, other.vel6)
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("solver", [{}, dict(hot_sweeps=2), dict(anderson=4)])
 @pytest.mark.parametrize("threads", [2, 3])
 def test_threaded_phases_equal_the_phases_in_turn(monkeypatch, threads, solver):
@@ -283,6 +288,7 @@ def test_partition_balances_the_interiors(scene):
     assert abs(int(sizes[0]) - int(sizes[1])) <= 2 * most, sizes
 
 
+@pytest.mark.slow
 def test_parallel_with_wire_and_driven_wall():
     """Links (swept on one thread after the contacts) and a pressure-driven lid (its
     contacts are shared by every domain) give the serial result within tolerance."""
@@ -328,6 +334,7 @@ _SCENES = {
 }
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("threads", [2, 3])
 @pytest.mark.parametrize("scene", sorted(_SCENES))
 def test_parallel_detection_gives_the_serial_lists(monkeypatch, scene, threads):

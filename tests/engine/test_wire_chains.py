@@ -139,6 +139,7 @@ VARIANTS = [dict(threads=2), dict(anderson=4), dict(threads=2, anderson=4)]
 VARIANT_IDS = ["2-threads", "anderson", "2-threads-anderson"]
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("variant", VARIANTS, ids=VARIANT_IDS)
 def test_a_long_chain_needs_a_few_sweeps_on_threads_and_mixed(variant):
     """The chain solve in the parallel sweep's link phase and inside Anderson mixing: the
@@ -188,6 +189,7 @@ def test_chain_solve_with_hot_sweeps_in_a_sand_pile():
     assert np.abs(plain - chains).max() < 1e-9
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("variant", VARIANTS, ids=VARIANT_IDS)
 def test_chain_solve_on_threads_and_mixed_in_a_sand_pile(variant):
     """The same pile with the chain solve on two threads (the parallel sweep's link phase),

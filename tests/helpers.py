@@ -202,10 +202,14 @@ def signal_child(proc, sig, *, before=None, timeout=60):
     return got, sent, out, err
 
 
-def threaded(*threads):
-    """Parametrize values of ``threads`` > 1 marked slow: the threaded sweep and detection
-    kernels take 70-100 s to compile on a fresh clone, which ``make test`` leaves to
-    ``make test-slow``."""
+def slow_params(*values):
+    """Parametrize values marked slow: those that run the threaded or Anderson sweeps,
+    whose kernels take 70-150 s to compile on a fresh clone (``make test`` leaves them to
+    ``make test-slow``)."""
     import pytest
 
-    return [pytest.param(t, marks=pytest.mark.slow) for t in threads]
+    return [pytest.param(v, marks=pytest.mark.slow) for v in values]
+
+
+#: Values of ``threads`` > 1 (:func:`slow_params`).
+threaded = slow_params

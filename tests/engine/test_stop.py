@@ -18,7 +18,7 @@ import pytest
 from engine import run, step, stop
 from engine.step import NonConvergenceWarning
 from tests.engine.test_io import scene
-from tests.helpers import signal_child
+from tests.helpers import signal_child, slow_params
 
 ROOT = Path(__file__).resolve().parents[2]
 
@@ -60,10 +60,10 @@ def assert_same_state(a, b):
         np.testing.assert_array_equal(getattr(ca, name)[:ca.count], getattr(cb, name)[:cb.count])
 
 
-@pytest.mark.parametrize("opt", [{}, {"hot_sweeps": 2}, {"anderson": 4}, {"threads": 2},
-                                 {"threads": 2, "anderson": 3}, {"threads": 2, "hot_sweeps": 2}],
-                         ids=["plain", "hot", "anderson", "threads", "threads-anderson",
-                              "threads-hot"])
+@pytest.mark.parametrize("opt", [{}, {"hot_sweeps": 2}, *slow_params(
+    {"anderson": 4}, {"threads": 2}, {"threads": 2, "anderson": 3},
+    {"threads": 2, "hot_sweeps": 2})], ids=["plain", "hot", "anderson", "threads",
+                                             "threads-anderson", "threads-hot"])
 def test_sweeps_in_chunks_are_one_call_bit_for_bit(opt, monkeypatch):
     """Five steps of up to 3000 sweeps each, looked at every 7 sweeps (430 chunks a step),
     end bit for bit as with one call per step, for the four NLGS loops."""

@@ -87,10 +87,11 @@ def _triaxial():
     cylinder_triaxial(0.05, axial_strain=0.001, progress=False)
 
 
-#: The scenes in stages: those of a stage side by side (each a process of its own, the
-#: longest first), the next stage once they are all done (the triaxial test then loads the deposit's and the
-#: solver's kernels instead of compiling them a second time).
-STAGES = (("solver_tests", "chains", "deposit", "solver_scene"), ("triaxial",))
+#: The scenes in stages: a process each, ``jobs`` at a time in this order (the chain solve,
+#: the longest to compile, first; the re-sweep loop last, once the contact detection and
+#: the solve's set-up it shares with the plain sweeps are in the cache), the next stage
+#: once they are all done (the triaxial test then only loads).
+STAGES = (("chains", "deposit", "solver_scene", "solver_tests"), ("triaxial",))
 SCENES = {"deposit": _deposit, "solver_tests": _solver_tests, "solver_scene": _solver_scene,
           "chains": _chains, "triaxial": _triaxial}
 

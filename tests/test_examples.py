@@ -8,7 +8,8 @@ import pytest
 ROOT = Path(__file__).resolve().parents[1]
 EXAMPLES = sorted(p.name for p in (ROOT / "examples").glob("0*.py") if p.name != "01_deposit.py")
 #: The examples and notebooks that take about 10 s or more (run by `make test-slow`).
-SLOW = {"03_cylinder_triaxial.py", "04_slope.py", "05_gravity_deposit.py", "explore.ipynb"}
+SLOW = {"03_cylinder_triaxial.py", "04_slope.py", "05_gravity_deposit.py", "explore.ipynb",
+        "tour.ipynb"}
 
 
 def _marked(names):

@@ -319,6 +319,7 @@ PARAVIEW_GUI = shutil.which("paraview")
 
 @pytest.mark.skipif(XVFB_RUN is None or PARAVIEW_GUI is None,
                     reason="the ParaView GUI or xvfb-run is not installed")
+@pytest.mark.slow
 def test_state_script_opens_in_the_paraview_gui(exported, tmp_path):
     """``paraview --script=open_in_paraview.py``, the one command the docs give: the GUI
     runs it to the end (it hung in ParaView 5.11 on the animation scene's time steps,

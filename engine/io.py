@@ -439,6 +439,20 @@ def _check_model(m: Model) -> None:
     ng = len(m.group_names)
     if m.pair_law.shape != (ng, ng):
         raise FormatError(f"model/pair_law has shape {m.pair_law.shape}, expected ({ng}, {ng})")
+    sph = m.sphere_ids
+    if sph.size and (np.any(sph < 0) or np.any(sph >= nb)):
+        raise FormatError(f"model/sphere_ids point outside the model's {nb} bodies")
+    for name, what in (("body_radius", "radius"), ("body_mass", "mass")):
+        v = getattr(m, name)[sph]
+        bad = sph[~(np.isfinite(v) & (v > 0))]
+        if bad.size:
+            raise FormatError(f"model/{name} of sphere {int(bad[0])} is "
+                              f"{float(getattr(m, name)[bad[0]])!r}: a sphere's {what} is a "
+                              f"positive number")
+    for name in ("link_i", "link_j"):
+        v = getattr(m, name)
+        if v.size and (v.min() < 0 or v.max() >= nb):
+            raise FormatError(f"model/{name} points outside the model's {nb} bodies")
 
 
 # -- state -------------------------------------------------------------------------------------
@@ -633,7 +647,7 @@ def _reading(path, fn):
 
 #: What reading a damaged or foreign file raises (HDF5, layout, pydantic): a FormatError.
 _READ_ERRORS = (FormatError, KeyError, OSError, TypeError, json.JSONDecodeError,
-                AttributeError, ValueError)
+                AttributeError, ValueError, IndexError)
 
 
 def _format_error(path, e: Exception) -> FormatError:
@@ -1507,6 +1521,7 @@ def frame_arrays(path, names, frames=None):
         m = _frame_count(fg)
         start, count = fg["contact_start"][:m], fg["contact_count"][:m]
         ks = list(range(m)) if frames is None else [_frame_of(k, m, False) for k in frames]
+        nb = fg["position"].shape[1]
         for k in ks:
             out = {}
             for n in names:
@@ -1515,6 +1530,10 @@ def frame_arrays(path, names, frames=None):
                     out[n] = fg["contacts"][n[8:]][a:a + int(count[k])]
                 else:
                     out[n] = fg[n][k]
+            try:
+                _check_arrays(k, nb, out)
+            except FormatError as e:
+                raise _format_error(path, e) from None
             yield out
     finally:
         f.close()
@@ -1532,6 +1551,50 @@ def _frame_of(frame, m: int, negative: bool = True) -> int:
     return int(frame) % m
 
 
+def _check_frame(k: int, model: Model, body: dict, links: dict) -> None:
+    """Frame ``k``'s body and link rows have the model's shapes and finite values (a
+    damaged or foreign frame: FormatError naming the frame and the dataset)."""
+    nb, nl = model.n_bodies, model.n_links
+    for name, v in body.items():
+        if v.shape != (nb, 3):
+            raise FormatError(f"frame {k}: frames/{name} has shape {v.shape}, the model has "
+                              f"{nb} bodies")
+        if not np.all(np.isfinite(v)):
+            raise FormatError(f"frame {k}: frames/{name} holds non-finite values (NaN or "
+                              f"inf: a damaged frame, or a run that failed)")
+    for name, v in links.items():
+        if v.shape != (nl,):
+            raise FormatError(f"frame {k}: frames/{name} has shape {v.shape}, the model has "
+                              f"{nl} links")
+    if nl and not np.all(np.isfinite(links["link_tension"])):
+        raise FormatError(f"frame {k}: frames/link_tension holds non-finite values")
+
+
+def _check_contacts(k: int, nb: int, get: dict) -> None:
+    """Frame ``k``'s contacts point at bodies of the model and carry finite values."""
+    for name in ("i", "j"):
+        v = get[name]
+        if v.size and (v.min() < 0 or v.max() >= nb):
+            raise FormatError(f"frame {k}: frames/contacts/{name} points outside the model's "
+                              f"{nb} bodies")
+    for name in ("normal", "force", "gap"):
+        if not np.all(np.isfinite(get[name])):
+            raise FormatError(f"frame {k}: frames/contacts/{name} holds non-finite values")
+
+
+def _check_arrays(k: int, nb: int, out: dict) -> None:
+    """:func:`frame_arrays`' rows of frame ``k``: finite numbers, contacts pointing at one of
+    the ``nb`` bodies."""
+    for name, v in out.items():
+        if name in ("contact_i", "contact_j"):
+            if v.size and (v.min() < 0 or v.max() >= nb):
+                raise FormatError(f"frame {k}: frames/contacts/{name[8:]} points outside the "
+                                  f"model's {nb} bodies")
+        elif v.dtype.kind == "f" and not np.all(np.isfinite(v)):
+            where = f"contacts/{name[8:]}" if name.startswith("contact_") else name
+            raise FormatError(f"frame {k}: frames/{where} holds non-finite values")
+
+
 def _state_from_frame(f, model: Model, frame: int, contacts: bool = True) -> State:
     """A State rebuilt from a history frame (no warm start: not a restart point);
     ``contacts=False``: without the frame's contacts (none are read)."""
@@ -1545,20 +1608,23 @@ def _state_from_frame(f, model: Model, frame: int, contacts: bool = True) -> Sta
         raise FormatError("the history holds no frame")
     k = _frame_of(frame, m)
     nb = model.n_bodies
+    body = {name: fg[name][k] for name in _FRAME_BODY}
+    links = {name: fg[name][k] for name in ("link_tension", "link_broken")}
+    _check_frame(k, model, body, links)
     vel6 = np.zeros((nb, 6))
-    vel6[:, :3], vel6[:, 3:] = fg["velocity"][k], fg["spin"][k]
+    vel6[:, :3], vel6[:, 3:] = body["velocity"], body["spin"]
     h = model.options.dt
     # the link frame of the analysis (engine.analysis.weber_stress): unit vector from j to
     # i and centre distance, here at the frame's positions (frames do not store the
     # step's predicted configuration)
-    pos_k = fg["position"][k]
+    pos_k = body["position"]
     d = pos_k[model.link_i] - pos_k[model.link_j]
     gap = np.linalg.norm(d, axis=1)
     normal = d / np.where(gap > 0, gap, 1.0)[:, None]
-    state = State(position=np.ascontiguousarray(fg["position"][k]), vel6=vel6,
+    state = State(position=np.ascontiguousarray(pos_k), vel6=vel6,
                   time=float(fg["time"][k]), step=int(fg["step"][k]), last_dt=h,
                   link_i=model.link_i.copy(), link_j=model.link_j.copy(),
-                  link_impulse=fg["link_tension"][k] * h, link_broken=fg["link_broken"][k],
+                  link_impulse=links["link_tension"] * h, link_broken=links["link_broken"],
                   link_normal=normal, link_gap=gap)
     state.link_excluded_next = model.body_next.copy()
     state.link_excluded_next[model.link_i[state.link_broken]] = -1
@@ -1567,6 +1633,7 @@ def _state_from_frame(f, model: Model, frame: int, contacts: bool = True) -> Sta
         n = 0
     cg = fg["contacts"]
     get = {name: cg[name][a:a + n] for name in _FRAME_CONTACT}
+    _check_contacts(k, nb, get)
     c = ContactBuffers(max(64, n))
     c.i[:n], c.j[:n], c.sub[:n], c.gap[:n] = get["i"], get["j"], get["sub"], get["gap"]
     c.frame[:n] = tangent_frames(get["normal"])

@@ -611,3 +611,68 @@ def test_history_meta_round_trips_and_survives_a_resume(tmp_path):
     io.save(tmp_path / "c.h5", model, state)
     with pytest.raises(ValueError, match="is not a history"):
         io.history_meta(tmp_path / "c.h5")
+
+
+def test_a_damaged_history_names_the_frame_and_the_dataset(tmp_path):
+    """Copies of a real history damaged where a checksum cannot see (NaN positions in one
+    frame, contact indices beyond the model, a negative radius in the model): every reader
+    says which frame and dataset in one line (FormatError, a ValueError); the intact frames
+    still read, one by one."""
+    import shutil
+
+    import h5py
+
+    model, state = scene()
+    good = tmp_path / "good.h5"
+    with io.History(good, trigger=10, frames=5) as h:
+        run(model, state, 40, writers=[h], progress=False)
+    n = io.frame_count(good)
+    assert n >= 4
+
+    def damaged(name, edit):
+        p = tmp_path / f"{name}.h5"
+        shutil.copy(good, p)
+        with h5py.File(p, "r+") as f:
+            edit(f)
+        return p
+
+    def nan_position(f):
+        f["frames/position"][2, 3, 0] = np.nan
+    p = damaged("nan", nan_position)
+    with pytest.raises(ValueError, match=r"nan\.h5: frame 2: frames/position holds non-finite"):
+        io.load(p, frame=2)
+    with pytest.raises(ValueError, match=r"frame 2: frames/position holds non-finite"):
+        list(io.iter_frames(p))
+    with pytest.raises(ValueError, match=r"frame 2: frames/position holds non-finite"):
+        list(io.frame_arrays(p, ["position"]))
+    assert np.all(np.isfinite(io.load(p, frame=1)[1].position))      # the others read
+    assert np.all(np.isfinite(io.load(p, frame=3)[1].position))
+
+    last = n - 1
+    assert io.load(good, frame=last)[1].contacts_buf.count > 0
+
+    def far_contact(f):
+        k = int(f["frames/contact_start"][last])
+        f["frames/contacts/j"][k] = 10 ** 6
+    p = damaged("index", far_contact)
+    nb = model.n_bodies
+    with pytest.raises(ValueError, match=rf"frame {last}: frames/contacts/j points outside "
+                                         rf"the model's {nb} bodies"):
+        io.load(p)
+    with pytest.raises(ValueError, match=rf"frame {last}: frames/contacts/j points outside"):
+        list(io.frame_arrays(p, ["contact_j"], frames=[last]))
+
+    def negative_radius(f):
+        r = f["model/body_radius"][...]
+        r[model.sphere_ids[0]] = -1e-3
+        del f["model/body_radius"]
+        f["model/body_radius"] = r
+    p = damaged("radius", negative_radius)
+    with pytest.raises(ValueError, match=rf"model/body_radius of sphere "
+                                         rf"{model.sphere_ids[0]} is -0\.001"):
+        io.load(p)
+    for p in tmp_path.glob("*.h5"):                       # every message is one line
+        try:
+            io.load(p, frame=2)
+        except ValueError as e:
+            assert "\n" not in str(e)

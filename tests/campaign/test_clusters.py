@@ -125,3 +125,15 @@ def test_a_slurm_cluster_by_name_writes_the_job_script_asked_for():
                  "#SBATCH -t 01:00:00", "distributed.cli.dask_worker", "--nworkers 2",
                  "--nthreads 1"):
         assert line in script, (line, script)
+
+
+def test_an_option_the_local_cluster_does_not_take_is_refused_before_it_starts():
+    """An unknown option went on to every nanny, which failed to start with a traceback
+    each; now one line before anything starts.  The options it does take pass the check."""
+    from workbench.campaign.clusters import _known_to_local
+
+    with pytest.raises(ValueError, match=r"\(--cluster-option\) bogus, nannies: not an "
+                                         r"option of the local cluster"):
+        ClusterSpec("local", {"bogus": 1, "nannies": 2}).make()
+    _known_to_local({"memory_limit": "1GB", "threads_per_worker": 1, "n_workers": 2,
+                     "dashboard_address": ":0"})

@@ -88,6 +88,8 @@ class ClusterSpec:
         except ImportError:
             raise ValueError(f"cluster {self.name!r} needs the package dask-jobqueue "
                              f"(pip install dask-jobqueue)") from None
+        if self.name == "local":
+            _known_to_local(self.options)
         cluster = _started(make, self.keywords(), self.name)
         if self.batch:
             cluster.scale(self.n_workers)       # n_workers workers: that many / processes jobs
@@ -122,6 +124,24 @@ class ClusterSpec:
             cluster.close()
             raise
         return client
+
+
+def _known_to_local(options) -> None:
+    """Refuse an option that neither LocalCluster nor its nannies and workers take (one
+    was passed on to every nanny, which failed to start with a traceback each)."""
+    import inspect
+
+    from distributed import LocalCluster, Nanny, Worker
+
+    names = set()
+    for cls in (LocalCluster, Nanny, Worker):
+        names |= {p.name for p in inspect.signature(cls.__init__).parameters.values()
+                  if p.kind in (p.POSITIONAL_OR_KEYWORD, p.KEYWORD_ONLY)} - {"self"}
+    bad = sorted(set(options) - names)
+    if bad:
+        raise ValueError(f"cluster_options (--cluster-option) {', '.join(bad)}: not an option "
+                         f"of the local cluster (distributed.LocalCluster, its nannies and "
+                         f"workers; e.g. memory_limit, threads_per_worker)")
 
 
 def _started(make, kw, name):

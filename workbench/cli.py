@@ -387,6 +387,14 @@ def cmd_run(a) -> int:
         lock.release()
 
 
+def _above_the_bar(line: str) -> None:
+    """Print ``line`` above a progress bar being drawn (it was glued to the bar's end)."""
+    from tqdm import tqdm
+
+    tqdm.write(line)
+    sys.stdout.flush()
+
+
 def keep_earlier_run(target: Path, resume: bool, force: bool) -> Path | None:
     """Before ``nscd run`` writes ``target``: a history already there that this run does
     not go on from (no ``resume``, or no checkpoint beside it) is kept as ``run.N.h5`` (the
@@ -425,7 +433,7 @@ def _run_into(a, cfg, params, out: Path, target: Path) -> int:
     if a.view:
         from .view.live import ViewerBeside
 
-        beside = ViewerBeside(out / "run.h5", announce=lambda m: print(m, flush=True)).start()
+        beside = ViewerBeside(out / "run.h5", announce=_above_the_bar).start()
     try:
         res = run_config(cfg, params, out)
         print(res)

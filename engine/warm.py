@@ -4,7 +4,8 @@ The kernels are compiled at their first call (``cache=True``: once per machine a
 then loaded in a fraction of a second).  On a fresh clone the first run of anything pays
 that compilation: about 100 s for a cylinder test, most of it in two kernels (the NLGS loop
 with re-sweeps, about 45 s, and the geometric deposit of the sample preparation, about
-40 s), 45 s more for the chain solve of the wires.  Two test workers that start together compile the same kernels twice, side by side.
+40 s), 45-60 s more for the chain solve of the wires.  Two test workers that start
+together compiled the same kernels twice, side by side.
 
 ``python -m engine.warm`` runs small scenes that reach the common kernels, each in its own
 process, ``--jobs`` at a time (default: the CPU count, at most 4), so that each kernel is
@@ -126,8 +127,15 @@ def warm(jobs: int | None = None, quiet: bool = False) -> dict:
 
 
 def main(argv=None) -> int:
-    ap = argparse.ArgumentParser(prog="python -m engine.warm", description=__doc__.splitlines()[0])
-    ap.add_argument("--jobs", type=int, default=None)
+    def jobs(text):
+        if not text.isdigit() or not 1 <= int(text) <= 64:
+            raise argparse.ArgumentTypeError(f"{text!r}: an integer in [1, 64]")
+        return int(text)
+
+    ap = argparse.ArgumentParser(prog="python -m engine.warm",
+                                 description=__doc__.splitlines()[0])
+    ap.add_argument("--jobs", type=jobs, default=None,
+                    help="processes at a time (default: the CPU count, at most 4)")
     ap.add_argument("--quiet", action="store_true")
     a = ap.parse_args(argv)
     t = time.perf_counter()

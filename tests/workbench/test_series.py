@@ -218,7 +218,8 @@ def test_state_script_is_written_beside_the_pvd(tmp_path):
 def test_a_shorter_series_replaces_an_older_one_of_the_same_name(tmp_path):
     """Writing a series where an older, longer one of the same name lies leaves no frame of
     the older one behind (its VTUs would look like the new series' last frames), says so
-    in a warning (three parts a frame here: beads, contacts, walls), and touches no other series or file of the folder."""
+    in a warning (three parts a frame here: beads, contacts, walls), and touches no other
+    series or file of the folder."""
     model, state = _scene()
     w = SeriesWriter(tmp_path, name="s")
     for _ in range(3):

@@ -418,6 +418,10 @@ def test_follow_shows_frames_of_a_run_being_written(browser, tmp_path):
                             timeout=60, what="frames appended by the run")
             assert frame_of(pg)[0] == n1 - 1 or frame_of(pg)[0] >= n0   # it follows the end
             assert "steps/s" in text(pg, "#progress") or "step" in text(pg, "#progress")
+            sim.wait(timeout=120)                          # the run ends: it says so
+            wait_until(lambda: "the run is over" in text(pg, "#progress"), timeout=60,
+                       what="the progress saying the run is over")
+            assert "steps/s" not in text(pg, "#progress")    # (it read "0 steps/s")
             pg.close()
         finally:
             assert stop(p) == 130

@@ -25,7 +25,7 @@ from . import DEFAULT_MODE, MODES
 from . import curves as _curves
 from . import glyphs
 from .scene import LAYERS, ViewOptions, ViewScene
-from .source import FIELDS, RunSource, ViewInputError, curves_of
+from .source import FIELDS, RunSource, ViewInputError, curves_of, run_status
 
 __all__ = ["Viewer", "MODES", "DEFAULT_MODE", "SPEEDS"]
 
@@ -447,7 +447,9 @@ class Viewer:
         rate = ((self._rate[-1][1] - self._rate[0][1]) / (self._rate[-1][0] - self._rate[0][0])
                 if len(self._rate) > 1 and self._rate[-1][0] > self._rate[0][0] else None)
         txt = f"step {step}" + (f" of at most {total}" if total else "")
-        if rate is not None:
+        if self.follow and run_status(src.path) == "complete":
+            txt += " · the run is over"          # (its rate fell to "0 steps/s")
+        elif rate:
             txt += f" · {rate:.3g} steps/s"
         self.state.progress = txt
 

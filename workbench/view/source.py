@@ -18,7 +18,7 @@ from pathlib import Path
 import numpy as np
 
 __all__ = ["RunSource", "RunEntry", "ViewInputError", "find_runs", "open_input", "FIELDS",
-           "curves_of", "field_values", "state_arrays"]
+           "run_status", "curves_of", "field_values", "state_arrays"]
 
 
 class ViewInputError(ValueError):
@@ -137,7 +137,7 @@ class RunEntry:
         return f"{self.name} · {self.test} · {shown or 'no parameters recorded'} · {self.status}"
 
 
-def _status_of(path: str) -> str:
+def run_status(path: str) -> str:
     """"complete"; "being written" or "not closed" (by the time of its last write) for a
     history still open for writing (its writer runs, or was killed); "unreadable".  Read
     without writing anything."""
@@ -208,7 +208,7 @@ def find_runs(folder, *, limit: int = 2000) -> list[RunEntry]:
                 meta = {}
             e.test = str(meta.get("test", "?"))
             e.params = dict(meta.get("params") or {})
-            e.status = _status_of(str(p))
+            e.status = run_status(str(p))
         else:
             e.test, e.status = "checkpoint", "checkpoint (one state)"
         row = rows.get(p.stem)

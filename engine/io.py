@@ -1531,7 +1531,8 @@ def frame_arrays(path, names, frames=None):
                 else:
                     out[n] = fg[n][k]
             try:
-                _check_arrays(k, nb, out)
+                _check_rows(k, nb, {f"contacts/{n[8:]}" if n.startswith("contact_") else n: v
+                                    for n, v in out.items()})
             except FormatError as e:
                 raise _format_error(path, e) from None
             yield out
@@ -1555,44 +1556,25 @@ def _check_frame(k: int, model: Model, body: dict, links: dict) -> None:
     """Frame ``k``'s body and link rows have the model's shapes and finite values (a
     damaged or foreign frame: FormatError naming the frame and the dataset)."""
     nb, nl = model.n_bodies, model.n_links
-    for name, v in body.items():
-        if v.shape != (nb, 3):
-            raise FormatError(f"frame {k}: frames/{name} has shape {v.shape}, the model has "
-                              f"{nb} bodies")
-        if not np.all(np.isfinite(v)):
-            raise FormatError(f"frame {k}: frames/{name} holds non-finite values (NaN or "
-                              f"inf: a damaged frame, or a run that failed)")
-    for name, v in links.items():
-        if v.shape != (nl,):
-            raise FormatError(f"frame {k}: frames/{name} has shape {v.shape}, the model has "
-                              f"{nl} links")
-    if nl and not np.all(np.isfinite(links["link_tension"])):
-        raise FormatError(f"frame {k}: frames/link_tension holds non-finite values")
+    for rows, shape, what in ((body, (nb, 3), f"{nb} bodies"), (links, (nl,), f"{nl} links")):
+        for name, v in rows.items():
+            if v.shape != shape:
+                raise FormatError(f"frame {k}: frames/{name} has shape {v.shape}, the model "
+                                  f"has {what}")
+    _check_rows(k, nb, {**body, **links})
 
 
-def _check_contacts(k: int, nb: int, get: dict) -> None:
-    """Frame ``k``'s contacts point at bodies of the model and carry finite values."""
-    for name in ("i", "j"):
-        v = get[name]
-        if v.size and (v.min() < 0 or v.max() >= nb):
-            raise FormatError(f"frame {k}: frames/contacts/{name} points outside the model's "
-                              f"{nb} bodies")
-    for name in ("normal", "force", "gap"):
-        if not np.all(np.isfinite(get[name])):
-            raise FormatError(f"frame {k}: frames/contacts/{name} holds non-finite values")
-
-
-def _check_arrays(k: int, nb: int, out: dict) -> None:
-    """:func:`frame_arrays`' rows of frame ``k``: finite numbers, contacts pointing at one of
-    the ``nb`` bodies."""
-    for name, v in out.items():
-        if name in ("contact_i", "contact_j"):
+def _check_rows(k: int, nb: int, rows: dict) -> None:
+    """Rows of frame ``k``, ``{dataset under frames/: array}``: finite numbers, and contact
+    indices (``contacts/i``, ``contacts/j``) pointing at one of the ``nb`` bodies."""
+    for where, v in rows.items():
+        if where in ("contacts/i", "contacts/j"):
             if v.size and (v.min() < 0 or v.max() >= nb):
-                raise FormatError(f"frame {k}: frames/contacts/{name[8:]} points outside the "
-                                  f"model's {nb} bodies")
+                raise FormatError(f"frame {k}: frames/{where} points outside the model's "
+                                  f"{nb} bodies")
         elif v.dtype.kind == "f" and not np.all(np.isfinite(v)):
-            where = f"contacts/{name[8:]}" if name.startswith("contact_") else name
-            raise FormatError(f"frame {k}: frames/{where} holds non-finite values")
+            raise FormatError(f"frame {k}: frames/{where} holds non-finite values (NaN or "
+                              f"inf: a damaged frame, or a run that failed)")
 
 
 def _state_from_frame(f, model: Model, frame: int, contacts: bool = True) -> State:
@@ -1633,7 +1615,7 @@ def _state_from_frame(f, model: Model, frame: int, contacts: bool = True) -> Sta
         n = 0
     cg = fg["contacts"]
     get = {name: cg[name][a:a + n] for name in _FRAME_CONTACT}
-    _check_contacts(k, nb, get)
+    _check_rows(k, nb, {f"contacts/{name}": v for name, v in get.items()})
     c = ContactBuffers(max(64, n))
     c.i[:n], c.j[:n], c.sub[:n], c.gap[:n] = get["i"], get["j"], get["sub"], get["gap"]
     c.frame[:n] = tangent_frames(get["normal"])

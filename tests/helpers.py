@@ -210,6 +210,3 @@ def slow_params(*values):
 
     return [pytest.param(v, marks=pytest.mark.slow) for v in values]
 
-
-#: Values of ``threads`` > 1 (:func:`slow_params`).
-threaded = slow_params

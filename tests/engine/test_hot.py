@@ -8,7 +8,7 @@ from engine import step
 from engine.model import Options
 from engine.solver.nlgs import hot_list
 
-from tests.helpers import (assert_option_refused, assert_same_wire_lid_trajectory, threaded,
+from tests.helpers import (assert_option_refused, assert_same_wire_lid_trajectory, slow_params,
                            same_converged_step)
 
 
@@ -38,7 +38,7 @@ def test_hot_list_and_its_group_starts():
     assert np.array_equal(hb, np.searchsorted(want, bounds))
 
 
-@pytest.mark.parametrize("threads", [1, *threaded(2, 3)])
+@pytest.mark.parametrize("threads", [1, *slow_params(2, 3)])
 @pytest.mark.parametrize("at", [150, 700])
 def test_hot_step_matches_plain_within_tolerance(pile_states, at, threads):
     """From the same state, one step converged to tol 1e-10 gives the plain Gauss–Seidel
@@ -50,7 +50,7 @@ def test_hot_step_matches_plain_within_tolerance(pile_states, at, threads):
     same_converged_step(tight, tight.with_options(hot_sweeps=3, threads=threads), states[at])
 
 
-@pytest.mark.parametrize("threads", [1, *threaded(2)])
+@pytest.mark.parametrize("threads", [1, *slow_params(2)])
 def test_hot_needs_fewer_full_sweeps_on_a_landing_pile(pile_states, threads):
     """While the pile lands (step 150), the full sweeps to tol 1e-8 drop by at least 2x
     against plain Gauss–Seidel on as many threads (measured on one thread: 291 against
@@ -65,7 +65,7 @@ def test_hot_needs_fewer_full_sweeps_on_a_landing_pile(pile_states, threads):
     assert b.iterations * 2 <= a.iterations, (a.iterations, b.iterations)
 
 
-@pytest.mark.parametrize("threads", [1, *threaded(2)])
+@pytest.mark.parametrize("threads", [1, *slow_params(2)])
 def test_hot_with_wire_and_driven_wall(threads):
     """Links (swept in the full sweeps) and a pressure-driven lid (its contacts in the
     second loop, or shared by every domain): the plain solver's trajectory within
@@ -73,7 +73,7 @@ def test_hot_with_wire_and_driven_wall(threads):
     assert_same_wire_lid_trajectory(dict(hot_sweeps=3, threads=threads))
 
 
-@pytest.mark.parametrize("threads", [1, *threaded(2)])
+@pytest.mark.parametrize("threads", [1, *slow_params(2)])
 def test_hot_is_deterministic(pile_states, threads):
     model, states = pile_states
     hot = model.with_options(tol=1e-6, hot_sweeps=3, threads=threads)

@@ -40,6 +40,8 @@ import numpy as np
 from . import laws as _laws
 from . import schedules as _schedules
 from .errors import FileProblem, FormatError, RunLocked, WriteFailed  # noqa: F401  (engine.io.FileProblem)
+from .files import errno_of as _errno_of, free_bytes, write_bytes, write_cause as _write_cause  # noqa: F401
+from .files import h5_image
 from .model import SPHERE, Drive, Model, Options
 from .analysis.energy import kinetic_energy  # noqa: F401  (engine.io.kinetic_energy)
 from .analysis.network import wall_forces  # noqa: F401  (engine.io.wall_forces)
@@ -53,37 +55,6 @@ FORMAT_VERSION = 1
 
 class _BadArgument(ValueError):
     """A bad argument of a reading function (not a problem of the file)."""
-
-
-def _errno_of(e: BaseException) -> int | None:
-    """The errno of an OS or HDF5 write error (h5py puts it in the message text)."""
-    if isinstance(e, OSError) and e.errno:
-        return e.errno
-    import re
-
-    m = re.search(r"errno = (\d+)", str(e))
-    return int(m.group(1)) if m else None
-
-
-def _write_cause(e: BaseException) -> str:
-    """One line saying why a write failed (HDF5's messages span several lines)."""
-    import errno as _errno
-
-    code = _errno_of(e)
-    if code:
-        return f"{os.strerror(code)} ({_errno.errorcode.get(code, code)})"
-    return " ".join(str(e).split())[:200]
-
-
-def free_bytes(path) -> int:
-    """Bytes a non-root user may still write on the file system of ``path`` (a file or a
-    folder; the nearest existing parent folder is looked at)."""
-    import shutil
-
-    d = os.path.abspath(os.fspath(path))
-    while not os.path.isdir(d):
-        d = os.path.dirname(d)
-    return shutil.disk_usage(d).free
 
 
 #: Free space [bytes] a history leaves on its disk beyond its next write's own size (HDF5
@@ -183,10 +154,18 @@ class _Lock:
         #: the file held a holder's note: a writer of this history was killed (its file may
         #: be torn; it is the killed run's and may be replaced)
         self.stale = bool(os.read(fd, 200).strip())
-        os.lseek(fd, 0, os.SEEK_SET)
-        os.ftruncate(fd, 0)
-        os.write(fd, f"pid {os.getpid()} on {socket.gethostname()}, since "
-                     f"{time.strftime('%Y-%m-%d %H:%M:%S')}".encode())
+        try:
+            os.lseek(fd, 0, os.SEEK_SET)
+            os.ftruncate(fd, 0)
+            os.write(fd, f"pid {os.getpid()} on {socket.gethostname()}, since "
+                         f"{time.strftime('%Y-%m-%d %H:%M:%S')}".encode())
+        except OSError as e:     # a full disk cannot take the note: the run cannot start
+            os.remove(self.path)
+            os.close(fd)
+            from .files import failed
+
+            raise failed(path, e, "the run cannot start: its lock file could not be "
+                         "written") from None
         self.fd = fd
 
     def __del__(self):
@@ -730,31 +709,26 @@ def save(path, model: Model, state: State, extra: dict | None = None, *,
     path = os.fspath(path)
     if not overwrite:
         _check_replaceable(path, "checkpoint")
-    tmp = f"{path}.tmp{os.getpid()}"
-    try:
-        with h5py.File(tmp, "w", libver=LIBVER) as f:
-            _root_attrs(f, "checkpoint")
-            _write_model(f.create_group("model"), model, strict=True)
-            _write_state(f.create_group("state"), state)
-            if extra:
-                eg = f.create_group("extra")
-                for name, v in extra.items():
-                    if isinstance(v, str):
-                        eg.attrs[name] = v
-                        continue
-                    v = np.asarray(v)
-                    if v.dtype.kind not in "biuf":
-                        raise ValueError(f"extra[{name!r}]: numbers or a str, got {v.dtype}")
-                    eg.create_dataset(name, data=v)
-        os.replace(tmp, path)  # a crash during save never spoils an older checkpoint
-    except (OSError, RuntimeError) as e:
-        if isinstance(e, (FileNotFoundError, IsADirectoryError, PermissionError)):
-            raise
-        raise WriteFailed(path, _errno_of(e), f"the checkpoint could not be written "
-                          f"({_write_cause(e)}); any older checkpoint there is kept") from None
-    finally:
-        if os.path.exists(tmp):
-            os.remove(tmp)
+
+    def build(f):
+        _root_attrs(f, "checkpoint")
+        _write_model(f.create_group("model"), model, strict=True)
+        _write_state(f.create_group("state"), state)
+        if extra:
+            eg = f.create_group("extra")
+            for name, v in extra.items():
+                if isinstance(v, str):
+                    eg.attrs[name] = v
+                    continue
+                v = np.asarray(v)
+                if v.dtype.kind not in "biuf":
+                    raise ValueError(f"extra[{name!r}]: numbers or a str, got {v.dtype}")
+                eg.create_dataset(name, data=v)
+
+    # built in memory (HDF5 never meets a full disk), then written and renamed into place:
+    # a failed or killed save never spoils an older checkpoint
+    write_bytes(path, h5_image(build, libver=LIBVER),
+                "the checkpoint could not be written")
 
 
 def load(path, frame: int = -1, callables: dict | None = None) -> tuple[Model, State]:
@@ -990,6 +964,7 @@ class History:
             except (TypeError, ValueError) as e:
                 raise ValueError(f"meta must be a JSON-serialisable dict: {e}") from None
         self._file = None
+        self._fresh = False           # the file was created by this History (not resumed)
         self._lock = lock_history(self.path)   # before the file is touched: one writer
         try:
             if resume_step is not None:
@@ -997,7 +972,7 @@ class History:
             else:
                 if not (overwrite or self._lock.stale):   # a killed run's may be torn
                     _check_replaceable(self.path, "history")
-                self._file = h5py.File(self.path, "w", libver=LIBVER)
+                self._create()
         except BaseException:
             self._lock.release()
             raise
@@ -1129,10 +1104,19 @@ class History:
                 f.close()
             except Exception:    # HDF5 could not write its metadata: nothing more to save
                 pass
-            self._lock.release()
             n, m, last = self._mark
-            kept = (f"it keeps {n} records and {m} frames, up to step {last} (its last "
-                    f"complete flush)" if last is not None else "it holds no complete record")
+            if last is not None:
+                kept = (f"it keeps {n} records and {m} frames, up to step {last} (its last "
+                        f"complete flush)")
+            elif self._fresh:        # nothing worth keeping: no file that looks like a run
+                kept = "it held no complete record and was removed"
+                try:
+                    os.remove(self.path)
+                except OSError:
+                    kept = "it holds no complete record"
+            else:
+                kept = "it holds no complete record"
+            self._lock.release()
             cause = e.strerror if isinstance(e, WriteFailed) else (
                 f"a write failed: {_write_cause(e)}")
             step = "" if state is None else f" at step {state.step}"
@@ -1158,19 +1142,48 @@ class History:
         self.close()
 
     # internals ----------------------------------------------------------------------------
+    def _create(self) -> None:
+        """Create the file, when the disk has room for its start (:data:`SPACE_MARGIN`):
+        HDF5 must not meet a full disk (:class:`_Headroom`).  A failure leaves no file."""
+        import errno
+
+        free = free_bytes(self.path)
+        if free < SPACE_MARGIN:
+            raise WriteFailed(self.path, errno.ENOSPC,
+                              f"the history cannot start: the disk is full ({free / 1e6:.3g} "
+                              f"MB free, less than the {SPACE_MARGIN / 1e6:.3g} MB a history "
+                              f"starts with)")
+        try:
+            self._file = h5py.File(self.path, "w", libver=LIBVER)
+        except (OSError, RuntimeError) as e:
+            if os.path.exists(self.path):
+                os.remove(self.path)
+            from .files import failed, is_write_error
+
+            if is_write_error(e):
+                raise failed(self.path, e, "the history cannot start") from None
+            raise
+        self._fresh = True
+
     def _reopen(self, step: int) -> None:
         """Go on writing an existing history from ``step`` (``resume_step``, a run restarted
         from a checkpoint of that step): the records and frames after it are cut (a killed
         run had written them before it died; the restarted run writes them again), and the
         extras must be the same as the file's.  The file is rewritten (a copy replacing it
-        atomically): HDF5 refuses to reopen for writing a file whose SWMR writer was killed."""
+        atomically): HDF5 refuses to reopen for writing a file whose SWMR writer was killed.
+        The copy is built in memory and written with plain file I/O (:mod:`engine.files`):
+        a full disk then stops the resume with :class:`WriteFailed` and the file as it was."""
         if not os.path.exists(self.path):
             raise FileNotFoundError(f"{self.path}: no history to resume")
         import glob
+        import io as _io
 
-        for old in glob.glob(glob.escape(self.path) + ".resume[0-9]*"):   # a killed resume's
+        from .files import leftovers
+
+        for old in [*glob.glob(glob.escape(self.path) + ".resume[0-9]*"),   # a killed resume's
+                    *leftovers(self.path)]:
             os.remove(old)
-        tmp = f"{self.path}.resume{os.getpid()}"
+        buf = _io.BytesIO()
         src = _open_read(self.path)
         try:
             _check_root(src, self.path, "history")
@@ -1180,7 +1193,7 @@ class History:
             if names != list(self.extra):
                 raise ValueError(f"{self.path}: its extras {names} are not this history's "
                                  f"{list(self.extra)}")
-            with h5py.File(tmp, "w", libver=LIBVER) as dst:
+            with h5py.File(buf, "w", libver=LIBVER) as dst:
                 for k, v in src.attrs.items():
                     dst.attrs[k] = v
                 self.run_id = _run_id_of(src)
@@ -1220,11 +1233,10 @@ class History:
                 self._row_bytes = (sum(g[c].dtype.itemsize * int(np.prod(g[c].shape[1:]))
                                        for c in cols))
             src.close()
-            os.replace(tmp, self.path)
+            write_bytes(self.path, buf.getvalue(), "the history could not be rewritten to "
+                        "resume it")
         finally:
             src.close()
-            if os.path.exists(tmp):
-                os.remove(tmp)
         self._file = h5py.File(self.path, "a", libver=LIBVER)
         try:
             self._file.swmr_mode = True

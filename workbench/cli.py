@@ -886,7 +886,7 @@ def main(argv=None) -> int:
         print(f"nscd {a.command}: the run failed: {e}", file=sys.stderr)
         return 1
     except WriteFailed as e:  # a full disk: what was written is kept, marked complete
-        print(f"nscd {a.command}: stopped: {e}", file=sys.stderr)
+        print(bounded(f"nscd {a.command}: stopped: {e}"), file=sys.stderr)
         return 1
     except ValueError as e:
         print(bounded(f"nscd {a.command}: {e}"), file=sys.stderr)
@@ -897,9 +897,17 @@ def main(argv=None) -> int:
     except BrokenPipeError:  # `nscd info RUN.h5 | head`: the reader left, nothing to say
         os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
         return 1
-    except OSError as e:  # a path that is a directory, exists already, cannot be written ...
-        where = f"{e.filename}: " if e.filename else ""
-        print(f"nscd {a.command}: {where}{e.strerror or e}", file=sys.stderr)
+    except (OSError, RuntimeError) as e:  # a path that is a directory, exists already ...
+        from engine.files import is_write_error, write_cause
+
+        if not (isinstance(e, OSError) or is_write_error(e)):
+            raise
+        where = f"{e.filename}: " if getattr(e, "filename", None) else ""
+        if is_write_error(e):     # a disk that refused a write no writer caught: exit 1
+            print(bounded(f"nscd {a.command}: stopped: {where}a write failed "
+                          f"({write_cause(e)})"), file=sys.stderr)
+            return 1
+        print(bounded(f"nscd {a.command}: {where}{e.strerror or e}"), file=sys.stderr)
         return 2
     finally:
         warnings.showwarning = show

@@ -195,10 +195,7 @@ def deposit_figure(history, path, *, tol: float | None = None, title: str | None
     axes[-1].set_xlabel("time [s]")
     if title:
         fig.suptitle(title)
-    path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fig.savefig(path)
-    return path
+    return _save(fig, path)
 
 
 def _axes(nrows=1, ncols=1, size=(6.4, 4.4)):
@@ -211,9 +208,11 @@ def _axes(nrows=1, ncols=1, size=(6.4, 4.4)):
 
 
 def _save(fig, path, tight: bool = False) -> Path:
+    from engine.files import replacing
+
     path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fig.savefig(path, **({"bbox_inches": "tight", "pad_inches": 0.1} if tight else {}))
+    with replacing(path, "the figure could not be written") as tmp:
+        fig.savefig(tmp, **({"bbox_inches": "tight", "pad_inches": 0.1} if tight else {}))
     return path
 
 

@@ -23,10 +23,14 @@ binary, no system ffmpeg), GIF through Pillow.
 """
 from __future__ import annotations
 
+import errno
 import os
 from pathlib import Path
 
 import numpy as np
+
+from engine.errors import WriteFailed
+from engine.files import free_bytes, is_write_error, replacing
 
 __all__ = ["parse_frames", "common_clim", "render_frames", "render_frame", "write_movie",
            "MOVIE_SUFFIXES", "frame_cylinder", "frame_title"]
@@ -280,9 +284,15 @@ def render_frames(history, out, *, frames=-1, preset: str = "beads", camera="iso
     for k in _progress(picked, len(picked), "render", progress and len(picked) > 1):
         model, state = io.load(history, frame=k)
         target = out if len(picked) == 1 else out / f"frame_{k:04d}.png"
-        paths.append(snapshot(model, state, target, preset=preset, camera=camera,
-                              window_size=size,
-                              **_frame_options(run, model, state, preset, opts)))
+        try:
+            paths.append(snapshot(model, state, target, preset=preset, camera=camera,
+                                  window_size=size,
+                                  **_frame_options(run, model, state, preset, opts)))
+        except WriteFailed as e:      # each PNG is whole or absent: say which are there
+            if len(picked) == 1:
+                raise
+            raise WriteFailed(e.filename, e.errno, f"{e.strerror}; {len(paths)} of the "
+                              f"{len(picked)} frames were written before it") from None
     return paths
 
 
@@ -319,20 +329,44 @@ def write_movie(history, path, *, frames="all", preset: str = "beads", camera="i
     kw = dict(fps=fps, codec="libx264", quality=7, pixelformat="yuv420p",
               macro_block_size=2) if path.suffix.lower() == ".mp4" else \
         dict(duration=1000.0 / fps, loop=0)     # Pillow's GIF duration is in ms (1/fps s: 0)
-    tmp = path.with_name(f".{path.name}.part{path.suffix}")
-    try:
-        with imageio.get_writer(tmp, **kw) as writer:
-            for k in _progress(picked, len(picked), "movie", progress):
-                model, state = io.load(history, frame=k)
-                pl = plotter(model, state, preset, camera=camera, window_size=(w, h),
-                             **_frame_options(run, model, state, preset, opts))
-                try:
-                    writer.append_data(pl.screenshot(None, return_img=True,
-                                                     transparent_background=False))
-                finally:
-                    pl.close()
-        os.replace(tmp, path)              # a movie cut short never replaces a good one
-    finally:
-        if tmp.exists():
-            tmp.unlink()
+    if path.suffix.lower() == ".mp4":
+        kw["ffmpeg_log_level"] = "quiet"     # its failures are told below, in one line
+    done = 0
+    with replacing(path, "the movie could not be written") as tmp:   # a movie cut short
+        open(tmp, "wb").close()            # never replaces a good one; a disk that cannot
+        try:                               # take a file is seen before ffmpeg starts
+            with imageio.get_writer(tmp, **kw) as writer:
+                for k in _progress(picked, len(picked), "movie", progress):
+                    model, state = io.load(history, frame=k)
+                    pl = plotter(model, state, preset, camera=camera, window_size=(w, h),
+                                 **_frame_options(run, model, state, preset, opts))
+                    try:
+                        writer.append_data(pl.screenshot(None, return_img=True,
+                                                         transparent_background=False))
+                    finally:
+                        pl.close()
+                    done += 1
+            if path.suffix.lower() == ".mp4":
+                _check_movie(tmp, len(picked))
+        except (OSError, RuntimeError) as e:
+            if isinstance(e, WriteFailed) or is_write_error(e):
+                raise
+            # ffmpeg died (its pipe broke) or wrote a movie it cannot read back: the disk
+            # is the usual cause; its own words are not a user's to read
+            code = errno.ENOSPC if free_bytes(tmp) < (1 << 20) else errno.EIO
+            raise WriteFailed(path, code, f"the movie could not be written (ffmpeg stopped "
+                              f"after {done} of {len(picked)} frames: "
+                              f"{os.strerror(code)}); the older file of this name, if any, "
+                              f"is kept") from None
     return path
+
+
+def _check_movie(path: Path, n: int) -> None:
+    """Raise RuntimeError unless ffmpeg reads ``n`` frames back from the movie ``path``
+    (imageio-ffmpeg does not look at ffmpeg's exit status: a movie whose end could not be
+    written is otherwise taken as done)."""
+    import imageio_ffmpeg
+
+    got, _ = imageio_ffmpeg.count_frames_and_secs(str(path))
+    if got != n:
+        raise RuntimeError(f"{path}: the movie holds {got} frames, not {n}")

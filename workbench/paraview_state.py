@@ -30,7 +30,6 @@ PVD beside itself (``__file__``), else at the absolute path it was written for.
 from __future__ import annotations
 
 import json
-import os
 from pathlib import Path
 
 __all__ = ["write_state_script", "SCRIPT_NAME"]
@@ -241,7 +240,7 @@ def write_state_script(pvd_path, path=None, *, ranges: dict | None = None,
             .replace("__FIELDS__", repr(sorted(fields)))
             .replace("__RANGES__", repr(rng))
             .replace("__SIZES__", json.dumps({k: float(v) for k, v in (sizes or {}).items()})))
-    tmp = out.with_suffix(".py.tmp")
-    tmp.write_text(text, encoding="utf-8")
-    os.replace(tmp, out)
+    from engine.files import write_text
+
+    write_text(out, text)
     return out

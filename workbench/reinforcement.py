@@ -307,8 +307,13 @@ def figure(summary: dict, path, tags=("2", "5", "10")):
                  "same seed — mean ± 2 SE (o), each seed (×); dashed: the paper's +7 % "
                  "(k = 0.2 N) and +23 % (rigid)", fontsize=8)
     fig.tight_layout()
-    fig.savefig(path, dpi=150)
-    plt.close(fig)
+    from engine.files import replacing
+
+    try:
+        with replacing(path, "the figure could not be written") as tmp:
+            fig.savefig(tmp, dpi=150)
+    finally:
+        plt.close(fig)
     return path
 
 

@@ -976,7 +976,10 @@ def snapshot(model, state, path, preset: str = "beads", *, camera="iso",
             shows = "the walls only" if preset == "wire" else "an empty map"
             warnings.warn(f"snapshot: preset {preset!r} draws the wire, and this scene has no "
                           f"wire links: {path} shows {shows}", RuntimeWarning, stacklevel=2)
-        pl.screenshot(str(path), transparent_background=False)
+        from engine.files import replacing
+
+        with replacing(path, "the picture could not be written") as tmp:
+            pl.screenshot(str(tmp), transparent_background=False)
     finally:
         pl.close()
     return path

@@ -70,6 +70,7 @@ import meshio
 import numpy as np
 
 from . import meshes
+from engine.errors import WriteFailed
 
 __all__ = ["SeriesWriter", "sphere_mesh", "contact_mesh", "wire_mesh", "wall_mesh", "read_pvd",
            "PARTS", "export_history", "frame_fields", "history_fields"]
@@ -163,6 +164,8 @@ class SeriesWriter:
         self.ranges: dict[tuple[str, str], list[float]] = {}
         self._sizes: dict[str, float] = {}   # typical sizes [m] for the state script
         self._fields: set[str] = set()       # field data names written
+        #: the VTU files this writer wrote, in order
+        self.written: list[Path] = []
 
     @property
     def pvd_path(self) -> Path:
@@ -208,6 +211,7 @@ class SeriesWriter:
             infix = "" if key == "beads" else f"_{key}"
             stem = f"{self.name}{infix}_{self.frames:06d}.vtu"
             _write_vtu(self.out_dir / stem, part, xml, self.compression)
+            self.written.append(self.out_dir / stem)
             self._entries.append((t, PARTS[key], stem))
             self._track(key, part)
         if not self._sizes and model.sphere_ids.size:
@@ -265,6 +269,19 @@ class SeriesWriter:
     def close(self) -> None:
         self.flush()
 
+    def remove(self) -> int:
+        """Remove what this writer wrote (its VTUs, its PVD, its state script); returns how
+        many files went."""
+        gone = 0
+        for p in [*self.written, self.pvd_path, self.out_dir / "open_in_paraview.py"]:
+            try:
+                p.unlink()
+                gone += 1
+            except FileNotFoundError:
+                pass
+        self.written, self._entries, self.frames = [], [], 0
+        return gone
+
     def _write_pvd(self) -> None:
         rows = "".join(
             f'    <DataSet timestep="{t!r}" group="" part="{part}" name="{_NAMES[part]}" '
@@ -273,9 +290,9 @@ class SeriesWriter:
         text = ('<?xml version="1.0"?>\n'
                 '<VTKFile type="Collection" version="0.1" byte_order="LittleEndian">\n'
                 '  <Collection>\n' + rows + '  </Collection>\n</VTKFile>\n')
-        tmp = self.pvd_path.with_suffix(".pvd.tmp")
-        tmp.write_text(text, encoding="utf-8")
-        os.replace(tmp, self.pvd_path)
+        from engine.files import write_text
+
+        write_text(self.pvd_path, text)
 
     def __enter__(self) -> "SeriesWriter":
         return self
@@ -342,23 +359,23 @@ def _field_data_xml(fields: dict, compression) -> bytes:
 
 def _write_vtu(path: Path, part, xml: bytes, compression) -> None:
     """The VTU of a part with the ``<FieldData>`` block first in its ``<UnstructuredGrid>``
-    (meshio writes no field data to VTU, and writes to a path only), then renamed into
-    place: a killed run leaves no half-written frame."""
-    raw = path.with_suffix(".vtu.part")
-    meshio.write(raw, part.to_meshio(), file_format="vtu", compression=compression)
-    data = raw.read_bytes()
-    tag = b"<UnstructuredGrid>"
-    i = data.find(tag)
-    if i < 0:
-        raise RuntimeError(f"{path}: meshio wrote no <UnstructuredGrid> element")
-    i += len(tag)
-    tmp = path.with_suffix(".vtu.tmp")
-    with open(tmp, "wb") as f:
-        f.write(data[:i])
-        f.write(b"\n" + xml)
-        f.write(data[i:])
-    os.replace(tmp, path)
-    raw.unlink()
+    (meshio writes no field data to VTU, and writes to a path only), written beside
+    ``path`` and renamed into place (:func:`engine.files.replacing`): a killed run or a
+    full disk leaves no half-written frame."""
+    from engine.files import replacing
+
+    with replacing(path) as tmp:
+        meshio.write(tmp, part.to_meshio(), file_format="vtu", compression=compression)
+        data = tmp.read_bytes()
+        tag = b"<UnstructuredGrid>"
+        i = data.find(tag)
+        if i < 0:
+            raise RuntimeError(f"{path}: meshio wrote no <UnstructuredGrid> element")
+        i += len(tag)
+        with open(tmp, "wb") as f:
+            f.write(data[:i])
+            f.write(b"\n" + xml)
+            f.write(data[i:])
 
 
 def history_fields(history) -> tuple[np.ndarray, dict]:
@@ -400,14 +417,20 @@ def export_history(history, outdir, *, name: str = "frame", progress: bool = Tru
     if progress:
         from tqdm.auto import tqdm
         it = tqdm(it, total=n, unit="frame", desc="export")
-    for state in it:
-        at = np.flatnonzero(steps == int(state.step))
-        extra = {}
-        for key, v in fields.items():
-            if at.size:
-                extra[key] = v[at[-1]]
-            else:
-                extra[key] = np.full(v.shape[1:] or (1,), np.nan)
-        w.write(model, state, fields=extra)
-    w.close()
+    try:
+        for state in it:
+            at = np.flatnonzero(steps == int(state.step))
+            extra = {}
+            for key, v in fields.items():
+                if at.size:
+                    extra[key] = v[at[-1]]
+                else:
+                    extra[key] = np.full(v.shape[1:] or (1,), np.nan)
+            w.write(model, state, fields=extra)
+        w.close()
+    except WriteFailed as e:      # no series that looks finished: what was written goes
+        at, gone = w.frames, w.remove()
+        raise WriteFailed(e.filename, e.errno, f"{e.strerror}; the export stopped at frame "
+                          f"{at} of {n} and removed the {gone} files it had "
+                          f"written") from None
     return w.pvd_path

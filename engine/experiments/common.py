@@ -634,7 +634,10 @@ class RestCheckpoint:
     def remove(self) -> None:
         import glob
 
-        for p in [self.path, *glob.glob(glob.escape(self.path) + ".tmp*")]:
+        from ..files import leftovers
+
+        for p in [self.path, *glob.glob(glob.escape(self.path) + ".tmp*"),
+                  *leftovers(self.path)]:
             if os.path.exists(p):
                 os.remove(p)
 

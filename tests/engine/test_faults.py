@@ -26,28 +26,6 @@ ROOT = Path(__file__).resolve().parents[2]
 ENV = {**os.environ, "PYTHONPATH": str(ROOT)}
 
 
-@pytest.fixture
-def small_disk(tmp_path):
-    """``small_disk(kib)``: a folder on a tmpfs of that size (unmounted after the test)."""
-    mounts = []
-
-    def make(kib: int) -> Path:
-        if os.geteuid() != 0:
-            pytest.skip("a small tmpfs can only be mounted by root")
-        d = tmp_path / f"disk{len(mounts)}"
-        d.mkdir()
-        r = subprocess.run(["mount", "-t", "tmpfs", "-o", f"size={kib}k", "tmpfs", str(d)],
-                           capture_output=True, text=True)
-        if r.returncode:
-            pytest.skip(f"cannot mount a tmpfs here: {r.stderr.strip()}")
-        mounts.append(d)
-        return d
-
-    yield make
-    for d in mounts:
-        subprocess.run(["umount", "-l", str(d)], capture_output=True)
-
-
 def _run_quiet(model, state, n, writers):
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", NonConvergenceWarning)

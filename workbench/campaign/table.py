@@ -8,7 +8,6 @@ from __future__ import annotations
 
 import json
 import math
-import os
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Mapping
@@ -106,12 +105,12 @@ def load_table(path) -> SweepTable:
 
 
 def write_json(table: SweepTable, path: Path, meta: dict):
-    path.parent.mkdir(parents=True, exist_ok=True)
-    tmp = path.with_name(path.name + ".tmp")
-    with open(tmp, "w") as f:
-        json.dump({"version": TABLE_VERSION, **meta, "cases": table.rows}, f, indent=1,
-                  sort_keys=False, allow_nan=False)
-    os.replace(tmp, path)                      # atomic: a crash leaves the old table
+    from engine.files import write_text
+
+    text = json.dumps({"version": TABLE_VERSION, **meta, "cases": table.rows}, indent=1,
+                      sort_keys=False, allow_nan=False)
+    # atomic: a crash or a full disk leaves the older table as it was
+    write_text(path, text, "the sweep table could not be written")
 
 
 def update_results(path, results: Mapping[str, dict]) -> SweepTable:
@@ -134,23 +133,27 @@ def write_hdf5(table: SweepTable, path) -> Path:
     missing), ``status``, ``attempts``, ``elapsed`` [s], ``id`` and ``error`` as strings."""
     import h5py
 
+    from engine.files import h5_image, write_bytes
+
     path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
     rows = table.rows
-    tmp = path.with_name(path.name + ".tmp")
-    with h5py.File(tmp, "w") as f:
+
+    def build(f):
         f.attrs["content"] = "sweep"
         f.attrs["format_version"] = TABLE_VERSION
         f.attrs["n_cases"] = len(rows)
         str_dt = h5py.string_dtype()
-        f.create_dataset("id", data=np.array([r["id"] for r in rows], dtype=object), dtype=str_dt)
+        f.create_dataset("id", data=np.array([r["id"] for r in rows], dtype=object),
+                         dtype=str_dt)
         f.create_dataset("status", data=np.array([r["status"] for r in rows], dtype=object),
                          dtype=str_dt)
         f.create_dataset("error", data=np.array([(r["errors"] or [""])[-1] for r in rows],
                                                 dtype=object), dtype=str_dt)
-        f.create_dataset("attempts", data=np.array([r["attempts"] for r in rows], dtype=np.int64))
+        f.create_dataset("attempts", data=np.array([r["attempts"] for r in rows],
+                                                   dtype=np.int64))
         el = f.create_dataset("elapsed", data=np.array(
-            [r.get("elapsed") if r.get("elapsed") is not None else np.nan for r in rows], float))
+            [r.get("elapsed") if r.get("elapsed") is not None else np.nan for r in rows],
+            float))
         el.attrs["unit"] = "s"
         for group, src in (("params", "params"), ("results", "result")):
             g = f.create_group(group)
@@ -165,5 +168,6 @@ def write_hdf5(table: SweepTable, path) -> Path:
                                                        if not isinstance(v, str) else v
                                                        for v in vals], dtype=object),
                                      dtype=str_dt)
-    os.replace(tmp, path)
+
+    write_bytes(path, h5_image(build), "the sweep table could not be written")
     return path

@@ -107,11 +107,13 @@ def build_report(out="out/paper", scale="default", *, scheduler=None, progress=T
     end_commit = _git_commit()
     if end_commit != commit:
         commit += f"; {end_commit} when the report was written (the runs used the first)"
-    path.write_text(_markdown(scale, claims, figs, pvds, table, rows, curves, out, wall,
+    from engine.files import write_text
+
+    write_text(path, _markdown(scale, claims, figs, pvds, table, rows, curves, out, wall,
                               table.wall_time, problems, scheduler, chosen, threads, commit,
                               not_run, reuse_only, names))
-    (out / "claims.json").write_text(json.dumps([c.__dict__ for c in claims], indent=1,
-                                                ensure_ascii=False))
+    write_text(out / "claims.json", json.dumps([c.__dict__ for c in claims], indent=1,
+                                               ensure_ascii=False))
     return Report(path, claims, figs, table, wall, problems)
 
 

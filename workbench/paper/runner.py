@@ -16,16 +16,15 @@ def _law(wire, k):
 
 
 def _write_curves(path, arrays: dict):
-    import h5py
+    from engine.files import h5_image, write_bytes
 
-    tmp = str(path) + ".tmp"
-    with h5py.File(tmp, "w") as f:
+    def build(f):
         f.attrs["content"] = "paper-curves"
         for k, v in arrays.items():
-            if v is None:
-                continue
-            f.create_dataset(k, data=np.asarray(v))
-    os.replace(tmp, path)
+            if v is not None:
+                f.create_dataset(k, data=np.asarray(v))
+
+    write_bytes(path, h5_image(build), "the curves could not be written")
 
 
 def read_curves(path) -> dict:

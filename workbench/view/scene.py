@@ -369,10 +369,12 @@ class ViewScene:
         :func:`workbench.render.snapshot`; the same view gives the same bytes)."""
         from pathlib import Path
 
+        from engine.files import replacing
+
         p = Path(path)
-        p.parent.mkdir(parents=True, exist_ok=True)
         self.plotter.render()
-        self.plotter.screenshot(str(p), transparent_background=False)
+        with replacing(p, "the screenshot could not be written") as tmp:
+            self.plotter.screenshot(str(tmp), transparent_background=False)
         return str(p)
 
     # ---------------------------------------------------------------- picking

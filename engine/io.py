@@ -871,6 +871,33 @@ _FRAME_BODY = {"position": ("m", 3), "velocity": ("m/s", 3), "spin": ("rad/s", 3
 _FRAME_CONTACT = {"i": (np.int32, (), "-"), "j": (np.int32, (), "-"), "sub": (np.int8, (), "-"),
                   "normal": (np.float64, (3,), "-"), "gap": (np.float64, (), "m"),
                   "force": (np.float64, (3,), "N")}
+#: The datasets under ``frames/`` a frame's checksums cover, in the columns of
+#: ``frames/crc32`` (one CRC-32 of each dataset's rows of the frame).
+_FRAME_CRC = ("position", "velocity", "spin", "link_tension", "link_broken", "time", "step",
+              "contact_start", "contact_count", *(f"contacts/{c}" for c in _FRAME_CONTACT))
+
+
+def _crc(v) -> int:
+    """CRC-32 of an array's bytes (as stored: the dataset's dtype, C order)."""
+    import zlib
+
+    return zlib.crc32(np.ascontiguousarray(v).view(np.uint8).reshape(-1))
+
+
+def _row_crcs(columns: list) -> np.ndarray:
+    """One CRC-32 per row over ``columns`` (arrays of one length, each in its stored
+    dtype), chained in their order: a record's checksum."""
+    import zlib
+
+    n = len(columns[0]) if columns else 0
+    flat = [np.ascontiguousarray(c).reshape(n, -1).view(np.uint8) for c in columns]
+    out = np.empty(n, np.uint32)
+    for r in range(n):
+        crc = 0
+        for c in flat:
+            crc = zlib.crc32(c[r], crc)
+        out[r] = crc
+    return out
 
 
 class History:
@@ -965,6 +992,7 @@ class History:
                 raise ValueError(f"meta must be a JSON-serialisable dict: {e}") from None
         self._file = None
         self._fresh = False           # the file was created by this History (not resumed)
+        self._crc = False             # the file has checksums (not an older one resumed)
         self._lock = lock_history(self.path)   # before the file is touched: one writer
         try:
             if resume_step is not None:
@@ -1058,11 +1086,18 @@ class History:
             g = self._file["records"]
             n0 = self.n_records
             k = len(self._buf["time"])
+            cols = []
             for name, rows in self._buf.items():
                 d = g[name]
+                v = np.asarray(rows, dtype=d.dtype).reshape((k,) + d.shape[1:])
                 d.resize(n0 + k, axis=0)
-                d[n0:] = np.asarray(rows, dtype=d.dtype).reshape((k,) + d.shape[1:])
+                d[n0:] = v
+                cols.append(v)
                 rows.clear()
+            if self._crc:
+                d = g["crc32"]
+                d.resize(n0 + k, axis=0)
+                d[n0:] = _row_crcs(cols)
             self.n_records = n0 + k
         if self._ready:
             self._last_flush = self._step_seen
@@ -1216,10 +1251,11 @@ class History:
                                       & (fsteps % max(self.frames, 1) == 0))
                 m = int(keep[-1]) + 1 if keep.size else 0
                 nc = int(fg["contact_start"][m - 1] + fg["contact_count"][m - 1]) if m else 0
-                for c in cols:
+                self._crc = "crc32" in g and "crc32" in fg   # (an older file has none)
+                for c in cols + (["crc32"] if self._crc else []):
                     g[c].resize(n, axis=0)
                 for c in ["step", "time", "contact_start", "contact_count", *_FRAME_BODY,
-                          "link_tension", "link_broken"]:
+                          "link_tension", "link_broken"] + (["crc32"] if self._crc else []):
                     fg[c].resize(m, axis=0)
                 for c in _FRAME_CONTACT:
                     fg["contacts"][c].resize(nc, axis=0)
@@ -1275,6 +1311,10 @@ class History:
         self._row_bytes = (sum(np.dtype(t).itemsize for t, _ in HISTORY_SCALARS.values())
                            + 24 * nw + sum(v.nbytes for v in first.values()))
         g.attrs["extra"] = json.dumps(list(self.extra))
+        # a CRC-32 per record over its columns, and per frame over each dataset's rows:
+        # damage (zeroed or flipped bytes) is found on reading, naming the row and dataset
+        cols = [*HISTORY_SCALARS, "wall_force", *self.extra]
+        _appendable(g, "crc32", (), np.uint32, "-", rows).attrs["columns"] = json.dumps(cols)
         # (records, frames) after each complete flush; readers trust no more than the last
         _appendable(f, "committed", (2,), np.int64, "-", 64)
         fg = f.create_group("frames")
@@ -1290,6 +1330,9 @@ class History:
         cg = fg.create_group("contacts")
         for name, (dtype, tail, unit) in _FRAME_CONTACT.items():
             _appendable(cg, name, tail, dtype, unit, 4096)
+        _appendable(fg, "crc32", (len(_FRAME_CRC),), np.uint32, "-", 64).attrs["datasets"] = \
+            json.dumps(_FRAME_CRC)
+        self._crc = True
         f.swmr_mode = True  # readers may follow the run; a crash leaves a readable file
         self._ready = True
 
@@ -1325,11 +1368,14 @@ class History:
         force = c.force if k and state.last_dt else np.zeros((k, 3))
         cg = fg["contacts"]
         n0 = cg["i"].shape[0]
+        crc = {}
         for name, v in (("i", c.i), ("j", c.j), ("sub", c.sub), ("normal", c.normal),
                         ("gap", c.gap), ("force", force)):
             d = cg[name]
+            v = np.asarray(v, dtype=d.dtype).reshape((k,) + d.shape[1:])
             d.resize(n0 + k, axis=0)
             d[n0:] = v
+            crc[f"contacts/{name}"] = _crc(v)
         m = self.n_frames
         links = state.links
         for name, v in (("position", state.position), ("velocity", state.velocity),
@@ -1337,8 +1383,14 @@ class History:
                         ("link_broken", links.broken), ("time", state.time),
                         ("step", state.step), ("contact_count", k), ("contact_start", n0)):
             d = fg[name]
+            v = np.asarray(v, dtype=d.dtype).reshape(d.shape[1:])
             d.resize(m + 1, axis=0)
             d[m] = v
+            crc[name] = _crc(v)
+        if self._crc:
+            d = fg["crc32"]
+            d.resize(m + 1, axis=0)
+            d[m] = [crc[name] for name in _FRAME_CRC]
         self.n_frames = m + 1
 
 
@@ -1457,6 +1509,8 @@ def read_history(path, frames: bool = True) -> HistoryData:
         n = _record_count(g, names)
         units = {name: str(g[name].attrs["unit"]) for name in names}
         rec = {name: g[name][:n] for name in names}
+        _verify_records(g, rec, n)
+        _check_monotone("records", rec["step"], rec["time"])
         for c in _LATER_SCALARS:
             if c not in rec:
                 rec[c], units[c] = np.full(n, np.nan), HISTORY_SCALARS[c][1]
@@ -1474,6 +1528,16 @@ def read_history(path, frames: bool = True) -> HistoryData:
             data.contact_start, data.contact_count = fg["contact_start"][:m], fg["contact_count"][:m]
             nc = int(data.contact_start[-1] + data.contact_count[-1]) if m else 0
             data.contact_arrays = {name: fg["contacts"][name][:nc] for name in _FRAME_CONTACT}
+            _check_monotone("frames", data.frame_step, data.frame_time)
+            for k in range(m):
+                a, b = int(data.contact_start[k]), int(data.contact_count[k])
+                _verify_frame(fg, k, {
+                    "position": data.position[k], "velocity": data.velocity[k],
+                    "spin": data.spin[k], "link_tension": data.link_tension[k],
+                    "link_broken": data.link_broken[k], "time": data.frame_time[k],
+                    "step": data.frame_step[k], "contact_start": data.contact_start[k],
+                    "contact_count": data.contact_count[k],
+                    **{f"contacts/{c}": v[a:a + b] for c, v in data.contact_arrays.items()}})
             for name in ("position", "velocity", "spin", "link_tension"):
                 units[name] = str(fg[name].attrs["unit"])
             units["frame_time"] = "s"
@@ -1543,8 +1607,10 @@ def frame_arrays(path, names, frames=None):
                 else:
                     out[n] = fg[n][k]
             try:
-                _check_rows(k, nb, {f"contacts/{n[8:]}" if n.startswith("contact_") else n: v
-                                    for n, v in out.items()})
+                rows = {f"contacts/{n[8:]}" if n.startswith("contact_") else n: v
+                        for n, v in out.items()}
+                _verify_frame(fg, k, rows)
+                _check_rows(k, nb, rows)
             except FormatError as e:
                 raise _format_error(path, e) from None
             yield out
@@ -1589,6 +1655,51 @@ def _check_rows(k: int, nb: int, rows: dict) -> None:
                               f"inf: a damaged frame, or a run that failed)")
 
 
+def _verify_frame(fg, k: int, got: dict) -> None:
+    """Frame ``k``'s rows ``{dataset under frames/: array as read}`` against the frame's
+    checksums (``frames/crc32``; a file written before them has none): FormatError naming
+    the frame and the first dataset whose bytes changed."""
+    d = fg.get("crc32")
+    if d is None or k >= d.shape[0]:
+        return
+    stored = d[k]
+    names = json.loads(d.attrs["datasets"])
+    for col, name in enumerate(names):
+        if name in got and _crc(np.asarray(got[name], fg[name].dtype)) != int(stored[col]):
+            raise FormatError(f"frame {k}: frames/{name} fails its checksum (the file is "
+                              f"damaged; the other frames can still be read one by one)")
+
+
+def _check_monotone(where: str, step, time) -> None:
+    """Steps that grow and times that do not go back (a damaged or foreign history:
+    FormatError naming the first row that breaks the order)."""
+    bad = np.flatnonzero((np.diff(step) <= 0) | ~(np.diff(time) >= 0))
+    if bad.size:
+        r = int(bad[0]) + 1
+        raise FormatError(f"{where}: row {r} (step {int(step[r])}, t = {float(time[r]):g} s) "
+                          f"does not follow row {r - 1} (step {int(step[r - 1])}, t = "
+                          f"{float(time[r - 1]):g} s): steps must grow and times not go back")
+
+
+def _verify_records(g, rec: dict, n: int) -> None:
+    """The ``n`` records read, ``{column: array}``, against their checksums
+    (``records/crc32``): FormatError naming the first damaged record and its step."""
+    d = g.get("crc32")
+    if d is None or n == 0:
+        return
+    cols = json.loads(d.attrs["columns"])
+    if any(c not in rec for c in cols):
+        return
+    stored = d[:n]
+    bad = np.flatnonzero(_row_crcs([np.asarray(rec[c][:len(stored)], g[c].dtype)
+                                    for c in cols]) != stored)
+    if bad.size:
+        r = int(bad[0])
+        raise FormatError(f"records: record {r} of {n} fails its checksum (the file is "
+                          f"damaged, {bad.size} records in all; its frames can still be read "
+                          f"one by one)")
+
+
 def _state_from_frame(f, model: Model, frame: int, contacts: bool = True) -> State:
     """A State rebuilt from a history frame (no warm start: not a restart point);
     ``contacts=False``: without the frame's contacts (none are read)."""
@@ -1604,6 +1715,8 @@ def _state_from_frame(f, model: Model, frame: int, contacts: bool = True) -> Sta
     nb = model.n_bodies
     body = {name: fg[name][k] for name in _FRAME_BODY}
     links = {name: fg[name][k] for name in ("link_tension", "link_broken")}
+    head = {name: fg[name][k] for name in ("time", "step", "contact_start", "contact_count")}
+    _verify_frame(fg, k, {**body, **links, **head})
     _check_frame(k, model, body, links)
     vel6 = np.zeros((nb, 6))
     vel6[:, :3], vel6[:, 3:] = body["velocity"], body["spin"]
@@ -1616,17 +1729,19 @@ def _state_from_frame(f, model: Model, frame: int, contacts: bool = True) -> Sta
     gap = np.linalg.norm(d, axis=1)
     normal = d / np.where(gap > 0, gap, 1.0)[:, None]
     state = State(position=np.ascontiguousarray(pos_k), vel6=vel6,
-                  time=float(fg["time"][k]), step=int(fg["step"][k]), last_dt=h,
+                  time=float(head["time"]), step=int(head["step"]), last_dt=h,
                   link_i=model.link_i.copy(), link_j=model.link_j.copy(),
                   link_impulse=links["link_tension"] * h, link_broken=links["link_broken"],
                   link_normal=normal, link_gap=gap)
     state.link_excluded_next = model.body_next.copy()
     state.link_excluded_next[model.link_i[state.link_broken]] = -1
-    a, n = int(fg["contact_start"][k]), int(fg["contact_count"][k])
+    a, n = int(head["contact_start"]), int(head["contact_count"])
     if not contacts:
         n = 0
     cg = fg["contacts"]
     get = {name: cg[name][a:a + n] for name in _FRAME_CONTACT}
+    if contacts:
+        _verify_frame(fg, k, {f"contacts/{name}": v for name, v in get.items()})
     _check_rows(k, nb, {f"contacts/{name}": v for name, v in get.items()})
     c = ContactBuffers(max(64, n))
     c.i[:n], c.j[:n], c.sub[:n], c.gap[:n] = get["i"], get["j"], get["sub"], get["gap"]

@@ -151,6 +151,7 @@ class SeriesWriter:
         if compression not in (None, "zlib", "lzma"):
             raise ValueError(f"compression must be None, 'zlib' or 'lzma', got {compression!r}")
         self.out_dir = Path(out_dir)
+        self._made_dir = not self.out_dir.exists()
         self.out_dir.mkdir(parents=True, exist_ok=True)
         self.every = int(every)
         self.name = name
@@ -280,6 +281,11 @@ class SeriesWriter:
             except FileNotFoundError:
                 pass
         self.written, self._entries, self.frames = [], [], 0
+        if self._made_dir:
+            try:
+                self.out_dir.rmdir()          # the folder it made, if left empty
+            except OSError:
+                pass
         return gone
 
     def _write_pvd(self) -> None:
@@ -385,10 +391,9 @@ def history_fields(history) -> tuple[np.ndarray, dict]:
     from engine import io
     from engine.analysis import loading_curves
 
-    try:
-        rec = io.read_history(history, frames=False)
-    except io.FormatError:
+    if io.file_content(history)[0] == "checkpoint":
         return np.zeros(0, np.int64), {}
+    rec = io.read_history(history, frames=False)     # damaged records: FormatError
     out = {k: np.asarray(v) for k, v in rec.extra.items()
            if np.asarray(v).dtype.kind in "fiub"}
     lc = loading_curves(rec)
@@ -428,9 +433,13 @@ def export_history(history, outdir, *, name: str = "frame", progress: bool = Tru
                     extra[key] = np.full(v.shape[1:] or (1,), np.nan)
             w.write(model, state, fields=extra)
         w.close()
-    except WriteFailed as e:      # no series that looks finished: what was written goes
+    except BaseException as e:    # no series that looks finished: what was written goes
         at, gone = w.frames, w.remove()
-        raise WriteFailed(e.filename, e.errno, f"{e.strerror}; the export stopped at frame "
-                          f"{at} of {n} and removed the {gone} files it had "
-                          f"written") from None
+        said = f"the export stopped at frame {at} of {n} and removed the {gone} files it had " \
+               f"written"
+        if isinstance(e, WriteFailed):
+            raise WriteFailed(e.filename, e.errno, f"{e.strerror}; {said}") from None
+        if isinstance(e, io.FormatError):     # a damaged frame
+            raise io.FormatError(f"{e}; {said}") from None
+        raise
     return w.pvd_path

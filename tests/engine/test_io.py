@@ -634,6 +634,7 @@ def test_a_damaged_history_names_the_frame_and_the_dataset(tmp_path):
         shutil.copy(good, p)
         with h5py.File(p, "r+") as f:
             edit(f)
+            del f["frames/crc32"], f["records/crc32"]   # as a file without checksums
         return p
 
     def nan_position(f):
@@ -676,3 +677,57 @@ def test_a_damaged_history_names_the_frame_and_the_dataset(tmp_path):
             io.load(p, frame=2)
         except ValueError as e:
             assert "\n" not in str(e)
+
+
+def test_damaged_bytes_fail_the_checksums_naming_the_frame_or_record(tmp_path):
+    """Bytes flipped or zeroed in a copy of a real history, where HDF5's own metadata
+    checksums cannot see them (inside a frame's or a record's data): every reader names the
+    frame (or record) and dataset in one line; the intact frames still read one by one."""
+    import shutil
+
+    import h5py
+
+    model, state = scene()
+    good = tmp_path / "good.h5"
+    with io.History(good, trigger=10, frames=5) as h:
+        run(model, state, 40, writers=[h], progress=False)
+    n = io.frame_count(good)
+    assert n >= 4
+    io.read_history(good)                                  # a good file reads whole
+
+    def damaged(name, dataset, chunk, at, flip):
+        p = tmp_path / f"{name}.h5"
+        shutil.copy(good, p)
+        with h5py.File(p, "r") as f:
+            info = f[dataset].id.get_chunk_info(chunk)
+        with open(p, "r+b") as fh:
+            fh.seek(info.byte_offset + at)
+            b = fh.read(4)
+            fh.seek(info.byte_offset + at)
+            fh.write(bytes(x ^ 0xFF for x in b) if flip else b"\0" * 4)
+        return p
+
+    p = damaged("flip", "frames/position", 2, 40, True)     # frame 2's chunk
+    for read in (lambda: io.load(p, frame=2), lambda: list(io.iter_frames(p)),
+                 lambda: list(io.frame_arrays(p, ["position"])), lambda: io.read_history(p)):
+        with pytest.raises(ValueError, match=r"flip\.h5: frame 2: frames/position fails its "
+                                             r"checksum \(the file is damaged"):
+            read()
+    assert io.load(p, frame=1)[1].step == io.load(good, frame=1)[1].step
+    np.testing.assert_array_equal(io.load(p, frame=3)[1].position,
+                                  io.load(good, frame=3)[1].position)
+
+    p = damaged("contacts", "frames/contacts/normal", 0, 8, True)   # flipped: contact 0's
+    with h5py.File(good) as f:                                      # normal, y component
+        k = int(np.flatnonzero(f["frames/contact_count"][:n] > 0)[0])
+        assert f["frames/contact_start"][k] == 0
+    with pytest.raises(ValueError, match=rf"frame {k}: frames/contacts/normal fails its "
+                                         rf"checksum"):
+        io.load(p, frame=k)
+    assert io.read_frame(p, k, contacts=False).step == io.load(good, frame=k)[1].step
+
+    p = damaged("record", "records/kinetic_energy", 0, 16, True)     # record 2
+    with pytest.raises(ValueError, match=r"record\.h5: records: record 2 of \d+ fails its "
+                                         r"checksum"):
+        io.read_history(p, frames=False)
+    io.load(p, frame=-1)                                    # its frames read

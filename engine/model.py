@@ -51,6 +51,13 @@ def pack_body_dyn(kind, mass, inertia, radius, dof, line) -> np.ndarray:
     return dyn
 
 
+#: Overlap [fraction of the smaller radius of a contact's two bodies] past which a run
+#: stops (:attr:`Options.max_overlap`): the smaller body half inside the other, ten times
+#: the overlap a run's summary warns about (``engine.sanity.OVERLAP_WARN``, 5 %).  The
+#: contact's normal, point and force no longer mean anything there; a run that must go on
+#: past it raises the bound (up to 1000).
+MAX_OVERLAP = 0.5
+
 #: The position correction's default (:attr:`Options.overlap_tol`): off.  Asked for
 #: (0.005 is the measured choice, bench/bench_overlap.py), overlaps beyond this fraction of
 #: the smaller radius are pushed out after every step.  Not on by default yet: a pull-out's
@@ -124,10 +131,10 @@ class Options(Checked):
     max_overlap : float
         Largest overlap of a contact at the end of a step's detection, as a fraction of the
         smaller radius of its two bodies, past which :func:`engine.run` stops with a
-        :class:`~engine.step.SimulationError` (default 2: the smaller body wholly inside
-        the other; above :data:`engine.sanity.OVERLAP_WARN` = 5 % the run's summary
-        warns).  Small wire beads against large grains reach about 1 (104 % was seen in
-        a box test at scale 0.03 with beads of 57.5 µm).
+        :class:`~engine.step.SimulationError` (default :data:`MAX_OVERLAP` = 0.5: the
+        smaller body half inside the other; above :data:`engine.sanity.OVERLAP_WARN` = 5 %
+        the run's summary warns).  The stop names the step, the two bodies and what to
+        change; a run that must go on raises it (up to 1000).
     contact_compliance : float
         ε, the contacts' normal compliance as a fraction of their Delassus diagonal, in
         [0, 1] (0, the default: rigid contacts, the paper's Signorini law).  With ε > 0
@@ -172,7 +179,7 @@ class Options(Checked):
     anderson: int = Field(0, ge=0, le=16)
     hot_sweeps: int = Field(0, ge=0, le=8)
     chain_solve: bool = False
-    max_overlap: float = Field(2.0, gt=0.0, le=1e3, allow_inf_nan=False)
+    max_overlap: float = Field(MAX_OVERLAP, gt=0.0, le=1e3, allow_inf_nan=False)
     natural_residual: bool = False
     contact_compliance: float = Field(0.0, ge=0.0, le=1.0, allow_inf_nan=False)
     overlap_tol: Optional[float] = Field(OVERLAP_TOL, gt=0.0, le=1.0, allow_inf_nan=False)

@@ -30,6 +30,10 @@ from .model import CAP_BOTTOM, CAP_TOP, FREE, PLANE
 #: Overlap [fraction of the smaller radius] above which a run's summary warns.
 OVERLAP_WARN = 0.05
 
+#: Relative motion of two touching bodies in one step [fraction of the smaller radius]
+#: beyond which the stop's advice is a smaller ``dt`` (:func:`overlap_advice`).
+TRAVEL_WARN = 0.05
+
 #: Kinetic energy the reactions may add to the free motion in one step, as a fraction of
 #: the free motion's own, before a run's summary warns (:func:`reaction_gain`: in exact
 #: arithmetic they add none; measured: never above 0 on falling piles at tol 1e-2 to 1e-8,
@@ -39,11 +43,19 @@ OVERLAP_WARN = 0.05
 ENERGY_WARN = 1e-6
 
 
-def overlap_advice(options) -> str:
+def overlap_advice(options, travel: float | None = None) -> str:
     """What to change when overlaps grow (the warning's and the stop's advice): without the
     position correction, turn it on; with it, what is left is one step's sinking: a tighter
     ``tol`` (the solve leaves a closing velocity each step), or a smaller ``dt`` if bodies
-    move fast."""
+    move fast.  ``travel``: how far the two bodies of the worst contact move against each
+    other in one step, as a fraction of the smaller radius; past :data:`TRAVEL_WARN` the
+    step is too coarse for their speed, and a ``dt`` that would bring it there comes
+    first."""
+    if travel is not None and travel > TRAVEL_WARN:
+        dt = options.dt * TRAVEL_WARN / travel
+        return (f"the two bodies move {100 * travel:.3g} % of a radius against each other in "
+                f"one step of dt = {options.dt:g} s: lower dt to {dt:.2g} s or less (or check "
+                f"loads and masses)")
     if options.overlap_tol is None:
         return (f"set overlap_tol = 0.005 (overlaps pushed out after each step), or lower "
                 f"tol = {options.tol:g}; lower dt = {options.dt:g} s only if bodies move "
@@ -178,5 +190,5 @@ THROUGH = {0: "went through plane {w} (its centre is behind the plane by more th
            3: "went through the top cap of cylinder {w}"}
 
 
-__all__ = ["overlap_advice", "max_overlap", "through_walls", "THROUGH", "reaction_gain",
+__all__ = ["overlap_advice", "TRAVEL_WARN", "max_overlap", "through_walls", "THROUGH", "reaction_gain",
            "energy_sources", "ENERGY_WARN", "OVERLAP_WARN", "PhysicsWarning"]

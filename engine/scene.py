@@ -12,8 +12,8 @@ import numpy as np
 
 from . import laws as _laws
 from .contact.broadphase import build_pairs
-from .model import (CAP_BOTTOM, CAP_TOP, CYLINDER, FREE, IMPOSED, LINE, OVERLAP_TOL, PLANE,
-                    SPHERE, Drive, Model, Options, pack_body_dyn)
+from .model import (CAP_BOTTOM, CAP_TOP, CYLINDER, FREE, IMPOSED, LINE, MAX_OVERLAP,
+                    OVERLAP_TOL, PLANE, SPHERE, Drive, Model, Options, pack_body_dyn)
 from .schedules import Schedule
 from .state import State
 
@@ -533,7 +533,7 @@ class Scene:
     def compile(self, dt: float, theta: float = 0.5, tol: float = 1e-4, max_iter: int = 1000,
                 relax: float = 1.0, alert: float | None = None, skin: float | None = None,
                 threads: int = 1, anderson: int = 0, hot_sweeps: int = 0,
-                max_overlap: float = 2.0, chain_solve: bool = False,
+                max_overlap: float = MAX_OVERLAP, chain_solve: bool = False,
                 natural_residual: bool = False, contact_compliance: float = 0.0,
                 overlap_tol: float | None = OVERLAP_TOL, overlap_sweeps: int = 50):
         """Freeze the scene into a :class:`Model` and its initial :class:`State`.

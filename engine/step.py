@@ -56,6 +56,7 @@ from .solver.nlgs import _break_links, solve
 from .solver.projection import correct_positions
 from .solver.residual import natural_residual
 from .state import ContactBuffers, StepStats
+from .model import SPHERE
 from .trigger import CallbackUpdater, Updater, every  # noqa: F401  (public here)
 
 
@@ -232,6 +233,9 @@ class RunSummary:
         :data:`engine.sanity.OVERLAP_WARN` the summary says so.
     max_overlap_step : int
         The step it was seen (-1: no overlap).
+    max_overlap_travel : float
+        How far that contact's two bodies moved against each other in that step, as a
+        fraction of the smaller radius (what the warning's advice reads, :func:`_travel`).
     energy_gain : float
         Largest kinetic energy the reactions added to the free motion in one step, as a
         fraction of the free motion's (:func:`engine.sanity.reaction_gain`; 0 when none
@@ -254,6 +258,7 @@ class RunSummary:
     max_contacts: int = 0
     max_overlap: float = 0.0
     max_overlap_step: int = -1
+    max_overlap_travel: float = 0.0
     energy_gain: float = 0.0
     energy_gain_step: int = -1
     condition_met: bool = False
@@ -280,16 +285,29 @@ class RunSummary:
         return head
 
 
+def _travel(model, state, i: int, j: int) -> float:
+    """How far bodies ``i`` and ``j`` (a contact) move against each other in one step at
+    their velocities now, as a fraction of the smaller radius (a wall: the sphere's)."""
+    if i < 0:
+        return 0.0
+    r = model.body_radius[i] if model.body_kind[j] != SPHERE else min(
+        model.body_radius[i], model.body_radius[j])
+    return float(np.linalg.norm(state.vel6[i, :3] - state.vel6[j, :3])
+                 * model.options.dt / r)
+
+
 def _check_physics(model, state, stats, walls) -> None:
     """The checks of :mod:`engine.sanity` that stop a run: an overlap past
     ``Options.max_overlap``, a sphere through a wall it interacts with."""
     limit = model.options.max_overlap
     if stats.max_overlap > limit:
         i, j = stats.overlap_pair
+        travel = _travel(model, state, i, j)
         raise SimulationError(
             f"step {state.step} (t = {state.time:.6g} s): bodies {i} and {j} overlap by "
-            f"{100 * stats.max_overlap:.3g} % of a radius, past max_overlap = {limit:g}; "
-            f"{overlap_advice(model.options)}")
+            f"{100 * stats.max_overlap:.3g} % of a radius, past max_overlap = {limit:g} "
+            f"(results beyond it are not physical; max_overlap = 1000 goes on anyway); "
+            f"{overlap_advice(model.options, travel)}")
     if walls.size:
         b, w, where = through_walls(state.position, model.body_radius, model.body_group,
                                     model.sphere_ids, walls, model.pair_law, model.body_kind,
@@ -414,6 +432,7 @@ def run(model, state, steps: int, writers: Iterable = (), progress: bool = True,
             _check_finite(model, state)
             if stats.max_overlap > summary.max_overlap:
                 summary.max_overlap, summary.max_overlap_step = stats.max_overlap, state.step
+                summary.max_overlap_travel = _travel(model, state, *stats.overlap_pair)
             if check_energy and stats.energy_gain > 0.0:
                 rel = stats.energy_gain / max(stats.free_energy, 1e-300)
                 if rel > summary.energy_gain:
@@ -460,7 +479,7 @@ def run(model, state, steps: int, writers: Iterable = (), progress: bool = True,
     if summary.max_overlap > OVERLAP_WARN:
         warnings.warn(f"overlaps up to {100 * summary.max_overlap:.3g} % of a radius (step "
                       f"{summary.max_overlap_step}), above {100 * OVERLAP_WARN:g} %: "
-                      f"{overlap_advice(model.options)}",
+                      f"{overlap_advice(model.options, summary.max_overlap_travel)}",
                       PhysicsWarning, stacklevel=2)
     if summary.energy_gain > ENERGY_WARN:
         warnings.warn(f"the reactions added kinetic energy to the free motion "

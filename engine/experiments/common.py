@@ -167,7 +167,8 @@ def compile_options(cfg) -> dict:
     return dict(dt=cfg.dt, theta=cfg.theta, tol=cfg.tol, max_iter=cfg.max_iter,
                 relax=cfg.relax, anderson=cfg.anderson, threads=cfg.threads,
                 hot_sweeps=cfg.hot_sweeps, chain_solve=cfg.chain_solve,
-                contact_compliance=cfg.contact_compliance, overlap_tol=cfg.overlap_tol)
+                contact_compliance=cfg.contact_compliance, overlap_tol=cfg.overlap_tol,
+                max_overlap=cfg.max_overlap)
 
 
 def inertial_rate(pressure, d_mean, density, inertial_number):
@@ -419,7 +420,8 @@ def run_to_rest(stages: Stages, steps: int, every: int, ke_fraction: float, ener
 #: Arguments of a test that do not change its run (not part of a checkpoint's identity;
 #: the thread count is checked on the model, :meth:`RestCheckpoint.load`; the slope's
 #: ``fit_degree`` only changes the regression of the heap at rest).
-NOT_IDENTITY = ("history", "progress", "resume", "checkpoint_every", "threads", "fit_degree")
+NOT_IDENTITY = ("history", "progress", "resume", "checkpoint_every", "threads", "fit_degree",
+                "max_overlap")
 
 
 def run_identity(arguments: dict) -> str:

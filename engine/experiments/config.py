@@ -38,7 +38,7 @@ from pydantic import (ConfigDict, Discriminator, Field, Tag, ValidationError, cr
                       field_validator, model_validator)
 
 from ..checks import InputError, NumbersOnly, describe
-from ..model import MAX_ITER_LIMIT, OVERLAP_TOL, solver_conflict
+from ..model import MAX_ITER_LIMIT, MAX_OVERLAP, OVERLAP_TOL, solver_conflict
 
 __all__ = ["CONFIGS", "TestConfig", "CylinderConfig", "BoxConfig", "SlopeConfig",
            "DepositConfig", "PulloutConfig", "Solver", "HotSweeps", "Anderson", "WireSpec",
@@ -240,6 +240,9 @@ class Solver(Strict):
     overlap_tol: Optional[float] = Field(OVERLAP_TOL, gt=0, le=1, description=(
         "overlaps beyond this fraction of the smaller radius are pushed out after each step, "
         "on positions only (no energy added; None: never)"))
+    max_overlap: float = Field(MAX_OVERLAP, gt=0, le=1e3, description=(
+        "the run stops past this overlap, a fraction of the smaller radius of a contact's "
+        "two bodies (results beyond it are not physical; raise it to go on anyway)"))
     max_nonconverged: float = Field(0.25, ge=0, le=1)
 
     @property

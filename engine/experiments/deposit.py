@@ -14,7 +14,7 @@ from ..analysis.wire import wire_chains
 from ..prep import Box, Cylinder, paper_sample
 from ..prep.samples import Sample
 from ..prep.relax import kinetic_energy
-from ..model import OVERLAP_TOL
+from ..model import MAX_OVERLAP, OVERLAP_TOL
 from ..scene import Scene
 from .config import DepositConfig
 from .common import (RestCheckpoint, RestResult, check_bool, check_scale, compile_options,
@@ -85,6 +85,7 @@ def gravity_deposit(scale: float = 0.05, *, sample: str | Sample = "slope", wire
                     anderson: int = 0, threads: int = 1, hot_sweeps: int | None = None,
                     chain_solve: bool = False, contact_compliance: float = 0.0,
                     overlap_tol: float | None = OVERLAP_TOL,
+                    max_overlap: float = MAX_OVERLAP,
                     mu: float = 0.5, mu_wall: float = 0.5, mu_wire: float = 0.3,
                     record_every: int = 20, frames: int = 200,
                     max_nonconverged: float = 0.25, history: str = "out/gravity_deposit.h5",

@@ -47,7 +47,7 @@ import numpy as np
 from .. import laws
 from ..analysis import wall_forces
 from ..analysis.energy import kinetic_energy
-from ..model import OVERLAP_TOL, Drive
+from ..model import MAX_OVERLAP, OVERLAP_TOL, Drive
 from ..prep.samples import pullout_sample
 from ..scene import Scene
 from ..schedules import FollowSchedules, Ramp
@@ -171,6 +171,7 @@ def pullout_test(scale: float = 0.2, *, pressure: float = 15e3, wire: bool = Tru
                  anderson: int = 0, threads: int = 1, hot_sweeps: int | None = None,
                  chain_solve: bool = False, contact_compliance: float = 0.0,
                  overlap_tol: float | None = OVERLAP_TOL,
+                 max_overlap: float = MAX_OVERLAP,
                  mu: float = 0.5, mu_wall: float = 0.0, mu_wire: float = 0.3,
                  record_every: int = 10, frames: int = 100, max_nonconverged: float = 0.25,
                  history: str = "out/pullout_test.h5", seed: int = 0,

@@ -13,7 +13,7 @@ from ..analysis import slope_profile
 from ..analysis.wire import wire_chains
 from ..prep import Cylinder, slope_sample
 from ..prep.relax import kinetic_energy
-from ..model import OVERLAP_TOL
+from ..model import MAX_OVERLAP, OVERLAP_TOL
 from ..scene import Scene
 from .config import SlopeConfig
 from .start import start_of
@@ -93,7 +93,8 @@ def slope_deposit(scale: float = 0.02, *, sample=None, wire: bool = True,
                   relax: float = 1.0, anderson: int = 0, threads: int = 1,
                   hot_sweeps: int | None = None, chain_solve: bool = False,
                   contact_compliance: float = 0.0,
-                  overlap_tol: float | None = OVERLAP_TOL, mu: float = 0.5,
+                  overlap_tol: float | None = OVERLAP_TOL,
+                  max_overlap: float = MAX_OVERLAP, mu: float = 0.5,
                   mu_floor: float = 0.8, mu_wire: float = 0.3, record_every: int = 20,
                   frames: int = 200, max_nonconverged: float = 0.25,
                   history: str = "out/slope_deposit.h5", seed: int = 0,

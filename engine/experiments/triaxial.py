@@ -55,7 +55,7 @@ from ..drivers import BoxFaces, Confinement, MembraneUpdater
 from ..schedules import FollowSchedules, Ramp, Servo
 from ..trigger import Updater
 from ..prep import Box, Cylinder, box_sample, cylinder_sample
-from ..model import OVERLAP_TOL
+from ..model import MAX_OVERLAP, OVERLAP_TOL
 from ..scene import Scene
 from .config import CONFIGS
 from .start import check_preparation, remove_group, start_of, without_wire
@@ -137,6 +137,7 @@ def cylinder_triaxial(scale: float = 0.05, *, sample=None, preparation: str = "g
                       anderson: int = 0, threads: int = 1, hot_sweeps: int | None = None,
                       chain_solve: bool = False, contact_compliance: float = 0.0,
                       overlap_tol: float | None = OVERLAP_TOL,
+                      max_overlap: float = MAX_OVERLAP,
                       mu: float = 0.5, mu_wall: float = 0.5, mu_wire: float = 0.3,
                       compaction_mu: float | None = None, iso_tol: float = 0.02,
                       iso_hold: int = 5, iso_max_steps: int = 4000, confine_every: int = 10,
@@ -217,7 +218,8 @@ def cylinder_triaxial(scale: float = 0.05, *, sample=None, preparation: str = "g
 
 #: The test's arguments the paper preparation's deposit takes as they are.
 _DEPOSIT_ARGS = ("dt", "theta", "tol", "max_iter", "relax", "anderson", "threads",
-                 "hot_sweeps", "chain_solve", "contact_compliance", "overlap_tol", "mu",
+                 "hot_sweeps", "chain_solve", "contact_compliance", "overlap_tol",
+                 "max_overlap", "mu",
                  "mu_wall", "mu_wire", "max_nonconverged", "seed")
 
 
@@ -464,7 +466,8 @@ def box_triaxial(scale: float = 0.05, *, sample=None, preparation: str = "geomet
                  relax: float = 1.0, anderson: int = 0, threads: int = 1,
                  hot_sweeps: int | None = None,
                  chain_solve: bool = False, contact_compliance: float = 0.0,
-                 overlap_tol: float | None = OVERLAP_TOL, mu: float = 0.5,
+                 overlap_tol: float | None = OVERLAP_TOL,
+                 max_overlap: float = MAX_OVERLAP, mu: float = 0.5,
                  mu_wall: float = 0.0,
                  mu_wire: float = 0.3, compaction_mu: float | None = None,
                  wall_mass: float | None = None, iso_tol: float = 0.02, iso_hold: int = 5,

@@ -112,6 +112,39 @@ def test_a_failed_run_is_one_line_with_exit_code_1(tmp_path, capsys):
     assert "nscd run: warning: the isotropic stage did not reach" in err
 
 
+def test_a_run_whose_overlaps_are_not_physical_fails_unless_asked_to_go_on(tmp_path, capsys):
+    """dt = 10 ms (inside the documented range) lets the box test's grains sink into each
+    other: the run stops with exit 1 past ``max_overlap`` (0.5 of the smaller radius), and
+    the advice is a time step that would do, since the two bodies moved most of a radius
+    against each other in one step (the advice used to offer "lower tol").  With
+    ``max_overlap = 1000`` the user goes on past that step."""
+    from engine.model import MAX_OVERLAP
+
+    assert MAX_OVERLAP == 0.5
+    p = tmp_path / "dt.toml"
+    body = 'test = "box_triaxial"\nscale = 0.02\n[parameters]\ndt = 0.01\n' \
+           'axial_strain = 0.002\niso_max_steps = 20\n'
+    p.write_text(body)
+    assert cli.main(["run", str(p), "--out", str(tmp_path / "a")]) == 1
+    err = capsys.readouterr().err
+    m = re.search(r"nscd run: the run failed: step (\d+) .* overlap by ([\d.]+) % of a radius, "
+                  r"past max_overlap = 0\.5 \(results beyond it are not physical; "
+                  r"max_overlap = 1000 goes on anyway\); the two bodies move ([\d.]+) % of a "
+                  r"radius against each other in one step of dt = 0\.01 s: lower dt to "
+                  r"([\d.e-]+) s or less", err)
+    assert m, err[-800:]
+    assert float(m.group(2)) > 50 and float(m.group(3)) > 5
+    assert float(m.group(4)) == pytest.approx(0.01 * 5 / float(m.group(3)), rel=0.05)
+    p.write_text(body + "max_overlap = 1000\n")
+    assert cli.main(["run", str(p), "--out", str(tmp_path / "b")]) == 0
+    err = capsys.readouterr().err
+    assert "past max_overlap" not in err
+    warned = re.findall(r"warning: overlaps up to ([\d.]+) % of a radius \(step (\d+)\), "
+                        r"above 5 %: the two bodies move [\d.]+ % of a radius against each "
+                        r"other in one step of dt = 0\.01 s: lower dt to", err)
+    assert warned and max(float(w[0]) for w in warned) > 50
+
+
 def test_an_interrupted_run_keeps_its_figures_and_exits_130(tmp_path, capsys, monkeypatch):
     """Ctrl-C at step 30 of the failing run above: no failure (the steps not run are not
     judged), the figures of the 30 steps, and the shell's code for SIGINT."""

@@ -247,6 +247,9 @@ class Scene:
         c = _finite_array(centers, "centers", (3,))
         if c.shape[0] < 2:
             raise ValueError(f"a wire needs at least 2 beads, got {c.shape[0]}")
+        if closed and c.shape[0] < 3:
+            raise ValueError(f"a closed wire needs at least 3 beads, got {c.shape[0]} (two "
+                             f"would be linked twice, to each other)")
         r = _positive(radius, "radius", "[m]")
         nxt = np.roll(c, -1, axis=0) if closed else c[1:]
         d = np.linalg.norm(c[:len(nxt)] - nxt, axis=1)
@@ -329,17 +332,24 @@ class Scene:
         return np.asarray(ids, dtype=np.int32)
 
     # -- interactions, fixities, drives ---------------------------------------------------
-    def interact(self, group_a: str, group_b: str, law) -> None:
+    def interact(self, group_a: str, group_b: str, law, *, replace: bool = False) -> None:
         """Declare the law between two groups (the see table); ``law=None`` = no interaction.
 
         Every pair of groups that can touch needs a declaration (checked at compile time).
+        A pair is one pair in either order: declaring it again with another law is refused
+        (which one was meant?) unless ``replace=True``.
         """
         for g in (group_a, group_b):
             if not isinstance(g, str) or not g:
                 raise ValueError(f"group names must be non-empty strings, got {g!r}")
         if law is not None and not isinstance(law, _laws.Law):
             raise ValueError(f"law must be an engine.laws law or None, got {law!r}")
-        self._pairs[tuple(sorted((group_a, group_b)))] = law
+        key = tuple(sorted((group_a, group_b)))
+        if key in self._pairs and self._pairs[key] != law and not replace:
+            raise ValueError(f"interact({group_a!r}, {group_b!r}): the pair has a law already "
+                             f"({self._pairs[key]!r}; either order is the same pair): pass "
+                             f"replace=True to replace it with {law!r}")
+        self._pairs[key] = law
 
     def _check_ids(self, ids, name: str = "ids") -> np.ndarray:
         a = np.atleast_1d(np.asarray(ids))

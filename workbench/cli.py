@@ -347,7 +347,7 @@ def cmd_demo(a) -> int:
                          .replace("scale", "--scale", 1) for x in _format_errors(e, cls)]
     if problems:
         raise ConfigError("; ".join(problems))
-    out = Path(a.out)
+    out = folder_arg(a.out, "--out", "the demo's history, pictures and series go into it")
     print(f"nscd demo: a TexSol cylinder triaxial test at scale {a.scale} -> {out}/")
     res = cylinder_triaxial(a.scale, axial_strain=a.strain, history=str(out / "run.h5"),
                             frames=50, progress=True)
@@ -375,7 +375,8 @@ def cmd_run(a) -> int:
     except ConfigError as e:
         print(bounded(f"nscd run: {e}"), file=sys.stderr)
         return 2
-    out = Path(a.out or Path("out") / Path(a.config).stem)
+    out = folder_arg(a.out, "--out", "the run's run.h5 and figures go into it") if a.out \
+        else Path("out") / Path(a.config).stem
     target = out / "run.h5"
     from engine.io import lock_history
 
@@ -470,6 +471,25 @@ def _numbers(text, n, what, flag):
     return vals
 
 
+#: Suffixes of the files the workbench writes or reads: a folder argument ending in one
+#: names a file, which cannot be what was meant (:func:`folder_arg`).
+FILE_SUFFIXES = (".h5", ".hdf5", ".png", ".jpg", ".jpeg", ".pvd", ".vtu", ".json", ".mp4",
+                 ".gif", ".toml", ".md", ".py")
+
+
+def folder_arg(value, flag: str, holds: str) -> Path:
+    """The folder argument ``flag`` (``holds``: what goes into it), refused in one line
+    when a file is at that path or its name ends like a file's (:data:`FILE_SUFFIXES`:
+    ``--out run.h5`` would make a folder named ``run.h5``)."""
+    p = Path(value)
+    if p.exists() and not p.is_dir():
+        raise ValueError(f"{flag} {value}: a file is there, and {flag} is a folder ({holds})")
+    if p.suffix.lower() in FILE_SUFFIXES and not p.is_dir():
+        raise ValueError(f"{flag} {value}: names a {p.suffix} file, and {flag} is a folder "
+                         f"({holds}): give a folder name")
+    return p
+
+
 def render_options(a) -> dict:
     """The picture options of ``nscd render`` checked (one line naming the flag when bad)."""
     opts = {}
@@ -485,6 +505,9 @@ def render_options(a) -> dict:
                                      "unit)", "--clim")
         if not hi > lo:
             raise ValueError(f"--clim {a.clim!r}: HIGH must be above LOW")
+        if a.preset == "beads" and a.color_by != "speed":
+            raise ValueError(f"--clim {a.clim!r}: --preset beads colours by "
+                             f"{a.color_by or 'kind'}, which has no scale: add --color-by speed")
         opts["clim"] = (lo, hi)
     if a.color_by is not None:
         if a.preset != "beads":
@@ -520,13 +543,22 @@ def cmd_render(a) -> int:
             raise ValueError(f"--movie {a.movie!r}: the file must end in "
                              f"{' or '.join(MOVIE_SUFFIXES)}")
         print(write_movie(a.run, a.movie, frames="all" if a.frames is None else a.frames,
-                          preset=a.preset, camera=a.camera, fps=a.fps, **opts))
+                          preset=a.preset, camera=a.camera,
+                          fps=10.0 if a.fps is None else a.fps, **opts))
         return 0
+    if a.fps is not None:
+        raise ValueError(f"--fps {a.fps:g}: frames per second are for --movie (PNGs have none)")
     from engine import io
     from .frames import parse_frames
 
     several = len(parse_frames(frames, io.frame_count(a.run))) > 1
-    out = a.out or (stem if several else stem + ".png")
+    if several:
+        out = folder_arg(a.out, "--out", "several frames go into it as frame_NNNN.png") \
+            if a.out else stem
+    elif a.out and (Path(a.out).is_dir() or a.out.endswith(("/", os.sep))):
+        out = Path(a.out) / f"{stem}.png"       # a folder given: the picture goes inside
+    else:
+        out = a.out or stem + ".png"
     paths = render_frames(a.run, out, frames=frames, preset=a.preset, camera=a.camera, **opts)
     print(paths[0] if len(paths) == 1 else f"{Path(out)}: {len(paths)} frames")
     return 0
@@ -540,6 +572,8 @@ def _paraview_hint(pvd) -> str:
 
 
 def cmd_export(a) -> int:
+    folder_arg(a.outdir, "OUTDIR", f"the VTU files and {a.name}.pvd go into it; the .pvd's "
+                                   f"name is --name")
     pvd = export_series(a.run, a.outdir, name=a.name)
     print(pvd)
     print(_paraview_hint(pvd))
@@ -577,6 +611,7 @@ def cmd_info(a) -> int:
 def cmd_paper(a) -> int:
     from .paper import build_report
 
+    folder_arg(a.out, "--out", "the report, its figures, runs and series go into it")
     rep = build_report(a.out, a.scale, scheduler=cluster_from_args(a), render=not a.no_render,
                        only=a.only, threads=a.threads, reuse_only=a.reuse_only, runs=a.runs)
     counts = {}
@@ -750,7 +785,8 @@ def parser() -> argparse.ArgumentParser:
                                  "<run stem>_<preset>[.png] in the current folder)")
     g.add_argument("--movie", metavar="FILE.mp4|FILE.gif",
                    help="every frame (or --frames) into one movie instead of PNGs")
-    g.add_argument("--fps", type=float, default=10.0, help="movie frames per second (default 10)")
+    g.add_argument("--fps", type=float, default=None,
+                   help="movie frames per second (default 10; --movie only)")
     g.add_argument("--axes", action="store_true",
                    help="draw the bounds as axes with ticks in mm (beads, wire, forces)")
     g.add_argument("--weak", action="store_true",

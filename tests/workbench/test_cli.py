@@ -173,7 +173,8 @@ def test_paths_that_cannot_be_used_are_one_line_with_exit_code_2(demo, tmp_path,
     (tmp_path / "afile").write_text("x")
     (tmp_path / "adir.toml").mkdir()
     for args, says in ((["export", str(demo / "run.h5"), str(tmp_path / "afile")],
-                        f"nscd export: {tmp_path / 'afile'}: File exists"),
+                        f"nscd export: OUTDIR {tmp_path / 'afile'}: a file is there, and OUTDIR "
+                        f"is a folder"),
                        (["run", str(tmp_path / "adir.toml")], "is a directory, not a TOML file"),
                        (["demo", "--scale", "-1", "--strain", "0.7", "--out", str(tmp_path / "d")],
                         "nscd demo: --scale = -1.0: must be a number in (0, 1]; --strain = 0.7: "
@@ -182,6 +183,55 @@ def test_paths_that_cannot_be_used_are_one_line_with_exit_code_2(demo, tmp_path,
         err = capsys.readouterr().err
         assert says in err and "Traceback" not in err
     assert not (tmp_path / "d").exists()              # the demo refused before writing
+
+
+def test_arguments_that_cannot_mean_what_was_meant_are_refused(demo, tmp_path, capsys):
+    """Output paths and options that would be taken otherwise than meant: a folder argument
+    named like a file (a folder ``many.png`` of PNGs, a folder ``series.pvd``, a run's
+    folder ``run.h5``), ``--fps`` without a movie, ``--clim`` on a picture with no colour
+    scale.  Each is one line, exit 2, nothing written; a folder given for one picture
+    receives it under the default name."""
+    run = str(demo / "run.h5")
+    cfg = tmp_path / "c.toml"
+    cfg.write_text('test = "box_triaxial"\nscale = 0.02\n')
+    for args, says in (
+            (["render", run, "--frames", "all", "--out", str(tmp_path / "many.png")],
+             "--out " + str(tmp_path / "many.png") + ": names a .png file, and --out is a "
+             "folder (several frames go into it as frame_NNNN.png): give a folder name"),
+            (["export", run, str(tmp_path / "series.pvd")], "names a .pvd file, and OUTDIR is "
+                                                            "a folder"),
+            (["run", str(cfg), "--out", str(tmp_path / "run.h5")], "names a .h5 file, and "
+                                                                   "--out is a folder"),
+            (["render", run, "--fps", "5", "--out", str(tmp_path / "a.png")],
+             "--fps 5: frames per second are for --movie"),
+            (["render", run, "--clim", "0,1", "--out", str(tmp_path / "b.png")],
+             "--preset beads colours by kind, which has no scale: add --color-by speed")):
+        assert cli.main(args) == 2, args
+        err = capsys.readouterr().err.strip().splitlines()
+        assert len(err) == 1 and says in err[0], err
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["c.toml"]
+    (tmp_path / "pics").mkdir()
+    assert cli.main(["render", run, "--out", str(tmp_path / "pics")]) == 0
+    assert [p.name for p in (tmp_path / "pics").iterdir()] == ["run_beads.png"]
+
+
+def test_a_scene_refuses_a_pair_declared_twice_and_a_closed_wire_of_two_beads():
+    from engine import Scene, laws
+
+    s = Scene()
+    s.add_spheres([[0, 0, 0], [0.003, 0, 0]], 0.001, 2650.0)
+    s.add_wire([[0, 0.01, 0], [0.0012, 0.01, 0], [0.0024, 0.01, 0]], 0.0005, 1400.0,
+               law=laws.ElasticWire(stiffness=1.0))
+    s.interact("sand", "wire", laws.Coulomb(mu=0.3))
+    s.interact("wire", "sand", laws.Coulomb(mu=0.3))          # the same: fine
+    with pytest.raises(ValueError, match=r"interact\('wire', 'sand'\): the pair has a law "
+                                         r"already \(Coulomb\(mu=0.3\); either order is the "
+                                         r"same pair\): pass replace=True"):
+        s.interact("wire", "sand", laws.Coulomb(mu=0.5))
+    s.interact("wire", "sand", laws.Coulomb(mu=0.5), replace=True)
+    with pytest.raises(ValueError, match="a closed wire needs at least 3 beads, got 2"):
+        s.add_wire([[0, 0.02, 0], [0.0012, 0.02, 0]], 0.0005, 1400.0,
+                   law=laws.ElasticWire(stiffness=1.0), closed=True)
 
 
 def test_inputs_that_are_not_regular_files_are_refused_before_they_are_opened(tmp_path,

@@ -626,7 +626,7 @@ def _reading(path, fn):
 
 #: What reading a damaged or foreign file raises (HDF5, layout, pydantic): a FormatError.
 _READ_ERRORS = (FormatError, KeyError, OSError, TypeError, json.JSONDecodeError,
-                AttributeError, ValueError, IndexError)
+                AttributeError, ValueError, IndexError, RuntimeError)
 
 
 def _format_error(path, e: Exception) -> FormatError:
@@ -1590,28 +1590,31 @@ def frame_arrays(path, names, frames=None):
         raise _BadArgument(f"frame_arrays: unknown array(s) {bad}")
     f = _open_read(path)
     try:
-        _check_root(f, path, "history")
-        if "frames" not in f:
-            return
-        fg = f["frames"]
-        m = _frame_count(fg)
-        start, count = fg["contact_start"][:m], fg["contact_count"][:m]
+        try:
+            _check_root(f, path, "history")
+            if "frames" not in f:
+                return
+            fg = f["frames"]
+            m = _frame_count(fg)
+            start, count = fg["contact_start"][:m], fg["contact_count"][:m]
+            nb = fg["position"].shape[1]
+        except _READ_ERRORS as e:
+            raise _format_error(path, e) from None
         ks = list(range(m)) if frames is None else [_frame_of(k, m, False) for k in frames]
-        nb = fg["position"].shape[1]
         for k in ks:
-            out = {}
-            for n in names:
-                if n.startswith("contact_"):
-                    a = int(start[k])
-                    out[n] = fg["contacts"][n[8:]][a:a + int(count[k])]
-                else:
-                    out[n] = fg[n][k]
             try:
+                out = {}
+                for n in names:
+                    if n.startswith("contact_"):
+                        a = int(start[k])
+                        out[n] = fg["contacts"][n[8:]][a:a + int(count[k])]
+                    else:
+                        out[n] = fg[n][k]
                 rows = {f"contacts/{n[8:]}" if n.startswith("contact_") else n: v
                         for n, v in out.items()}
                 _verify_frame(fg, k, rows)
                 _check_rows(k, nb, rows)
-            except FormatError as e:
+            except _READ_ERRORS as e:
                 raise _format_error(path, e) from None
             yield out
     finally:

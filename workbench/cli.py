@@ -889,10 +889,27 @@ def _cluster_arguments(p, default):
 INTERRUPTED = 130  # the shell's code for a command stopped by SIGINT
 
 
+def _internal(a, e: BaseException) -> int:
+    """An error no message was written for (a bug of the workbench): one line saying so,
+    exit 1; ``NSCD_TRACEBACK=1`` in the environment raises it with its traceback."""
+    if os.environ.get("NSCD_TRACEBACK"):
+        raise e
+    where = e.__traceback__
+    while where is not None and where.tb_next is not None:
+        where = where.tb_next
+    at = (f" at {Path(where.tb_frame.f_code.co_filename).name}:{where.tb_lineno}"
+          if where is not None else "")
+    print(bounded(f"nscd {a.command}: internal error ({type(e).__name__}{at}: "
+                  f"{' '.join(str(e).split())}); please report it (NSCD_TRACEBACK=1 shows "
+                  f"the traceback)"), file=sys.stderr)
+    return 1
+
+
 def main(argv=None) -> int:
     """Exit codes: 0 done; 1 a run failed (it did not converge, the sample came apart, a
-    value became NaN: the message says where the history is); 2 bad input (a file, a
-    parameter); 130 stopped by Ctrl-C / SIGTERM (``nscd run`` still writes the figures of
+    value became NaN: the message says where the history is), a write failed (a full disk)
+    or an internal error (a bug: one line, ``NSCD_TRACEBACK=1`` for its traceback); 2 bad
+    input (a file, a parameter); 130 stopped by Ctrl-C / SIGTERM (``nscd run`` still writes the figures of
     the steps run; a sweep keeps its finished cases); one line on stderr, no traceback."""
     from engine.experiments import ConfinementError, ConvergenceError
     from engine.io import WriteFailed
@@ -937,7 +954,7 @@ def main(argv=None) -> int:
         from engine.files import is_write_error, write_cause
 
         if not (isinstance(e, OSError) or is_write_error(e)):
-            raise
+            return _internal(a, e)
         where = f"{e.filename}: " if getattr(e, "filename", None) else ""
         if is_write_error(e):     # a disk that refused a write no writer caught: exit 1
             print(bounded(f"nscd {a.command}: stopped: {where}a write failed "
@@ -945,6 +962,8 @@ def main(argv=None) -> int:
             return 1
         print(bounded(f"nscd {a.command}: {where}{e.strerror or e}"), file=sys.stderr)
         return 2
+    except Exception as e:        # a bug of ours: one line, the traceback on demand
+        return _internal(a, e)
     finally:
         warnings.showwarning = show
         if old_term is not None:

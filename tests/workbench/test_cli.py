@@ -215,6 +215,21 @@ def test_arguments_that_cannot_mean_what_was_meant_are_refused(demo, tmp_path, c
     assert [p.name for p in (tmp_path / "pics").iterdir()] == ["run_beads.png"]
 
 
+def test_an_internal_error_is_one_line_and_its_traceback_on_demand(demo, capsys,
+                                                                    monkeypatch):
+    def broken(a):
+        {}["missing"]
+
+    monkeypatch.setattr(cli, "cmd_info", broken)
+    assert cli.main(["info", str(demo / "run.h5")]) == 1
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and err[0].startswith("nscd info: internal error (KeyError at "
+                                               "test_cli.py:") and "NSCD_TRACEBACK=1" in err[0]
+    monkeypatch.setenv("NSCD_TRACEBACK", "1")
+    with pytest.raises(KeyError):
+        cli.main(["info", str(demo / "run.h5")])
+
+
 def test_a_scene_refuses_a_pair_declared_twice_and_a_closed_wire_of_two_beads():
     from engine import Scene, laws
 

@@ -53,6 +53,11 @@ FORMAT_NAME = "nscd-workbench"
 FORMAT_VERSION = 1
 
 
+class NoRecords(FormatError):
+    """A history whose first record is not written yet (a run that has just started, or
+    was killed before it): not damage, so a reader may go on without the records."""
+
+
 class _BadArgument(ValueError):
     """A bad argument of a reading function (not a problem of the file)."""
 
@@ -633,7 +638,7 @@ def _format_error(path, e: Exception) -> FormatError:
     """The one-line FormatError naming ``path`` for an error met while reading it."""
     where = os.fspath(path)
     if isinstance(e, FormatError):
-        return e if where in str(e) else FormatError(f"{where}: {e}")
+        return e if where in str(e) else type(e)(f"{where}: {e}")   # (NoRecords stays)
     if isinstance(e, ValueError) and not isinstance(e, json.JSONDecodeError):
         return FormatError(f"{where}: corrupt or incomplete file ({e})")  # pydantic, shapes
     return FormatError(f"{where}: corrupt or incomplete file ({type(e).__name__}: {e})")
@@ -1501,7 +1506,7 @@ def read_history(path, frames: bool = True) -> HistoryData:
     def read(f):
         _check_root(f, path, "history")
         if "records" not in f:  # created, but killed before the first record
-            raise FormatError("the history holds no record yet")
+            raise NoRecords("the history holds no record yet")
         g = f["records"]
         extra = json.loads(g.attrs["extra"])
         scalars = [c for c in HISTORY_SCALARS if c in g or c not in _LATER_SCALARS]
@@ -1766,5 +1771,5 @@ __all__ = ["save", "load", "load_model", "file_content", "History", "HistoryData
            "free_bytes",
            "read_history", "history_run_id", "history_meta", "read_frame", "iter_frames",
            "frame_index",
-           "frame_arrays", "Checkpoint", "FormatError", "UnsavedCallable",
+           "frame_arrays", "Checkpoint", "FormatError", "NoRecords", "UnsavedCallable",
            "kinetic_energy", "wall_forces", "FORMAT_VERSION", "FORMAT_NAME"]

@@ -101,7 +101,7 @@ class _Run:
         self.test = io.history_meta(path).get("test")
         try:
             self.records = io.read_history(path, frames=False)
-        except io.FormatError:                             # no record yet
+        except io.NoRecords:                  # a run just started (damage is not swallowed)
             return
         from engine.analysis import loading_curves
 
@@ -331,23 +331,38 @@ def write_movie(history, path, *, frames="all", preset: str = "beads", camera="i
         dict(duration=1000.0 / fps, loop=0)     # Pillow's GIF duration is in ms (1/fps s: 0)
     if path.suffix.lower() == ".mp4":
         kw["ffmpeg_log_level"] = "quiet"     # its failures are told below, in one line
+    mp4 = path.suffix.lower() == ".mp4"
+
+    def pictures():
+        for k in _progress(picked, len(picked), "movie", progress):
+            model, state = io.load(history, frame=k)
+            pl = plotter(model, state, preset, camera=camera, window_size=(w, h),
+                         **_frame_options(run, model, state, preset, opts))
+            try:
+                yield pl.screenshot(None, return_img=True, transparent_background=False)
+            finally:
+                pl.close()
+
     done = 0
     with replacing(path, "the movie could not be written") as tmp:   # a movie cut short
         open(tmp, "wb").close()            # never replaces a good one; a disk that cannot
-        try:                               # take a file is seen before ffmpeg starts
+        if not mp4:                        # take a file is seen before ffmpeg starts
+            # a GIF: Pillow writes every frame at the end anyway; built in memory, so that
+            # a full disk meets one plain write (imageio's writer, failing on close, failed
+            # again when it was freed, with a traceback)
+            import io as _io
+
+            buf = _io.BytesIO()
+            imageio.mimwrite(buf, list(pictures()), format="GIF", **kw)
+            with open(tmp, "wb") as f:
+                f.write(buf.getvalue())
+            return path
+        try:
             with imageio.get_writer(tmp, **kw) as writer:
-                for k in _progress(picked, len(picked), "movie", progress):
-                    model, state = io.load(history, frame=k)
-                    pl = plotter(model, state, preset, camera=camera, window_size=(w, h),
-                                 **_frame_options(run, model, state, preset, opts))
-                    try:
-                        writer.append_data(pl.screenshot(None, return_img=True,
-                                                         transparent_background=False))
-                    finally:
-                        pl.close()
+                for picture in pictures():
+                    writer.append_data(picture)
                     done += 1
-            if path.suffix.lower() == ".mp4":
-                _check_movie(tmp, len(picked))
+            _check_movie(tmp, len(picked))
         except (OSError, RuntimeError) as e:
             if isinstance(e, WriteFailed) or is_write_error(e):
                 raise

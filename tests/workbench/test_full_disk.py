@@ -122,16 +122,19 @@ def test_frames_on_a_full_disk_are_whole_or_absent_and_the_count_is_said(history
         assert p.name.startswith("frame_")
 
 
-@pytest.mark.parametrize("readonly", [False, True], ids=["full", "read-only"])
-def test_a_movie_that_cannot_be_written_leaves_nothing(history, small_disk, capsys, readonly):
+@pytest.mark.parametrize("readonly, kind", [(False, "mp4"), (True, "mp4"), (False, "gif")],
+                         ids=["full", "read-only", "gif-full"])
+def test_a_movie_that_cannot_be_written_leaves_nothing(history, small_disk, capsys, readonly,
+                                                       kind):
     """ffmpeg, whose end could not be written, exits with an error imageio does not look
-    at: the movie is read back (its frame count) before it takes its name."""
+    at: the movie is read back (its frame count) before it takes its name.  A GIF is built
+    in memory and written in one go."""
     disk = small_disk(48, readonly)
-    code, lines = _nscd(["render", str(history), "--movie", str(disk / "m.mp4"), "--frames",
-                         "0:6"], capsys)
+    code, lines = _nscd(["render", str(history), "--movie", str(disk / f"m.{kind}"),
+                         "--frames", "0:6"], capsys)
     assert code == 1 and len(lines) == 1, lines
-    assert lines[0].startswith(f"nscd render: stopped: {disk}/m.mp4: the movie could not be "
-                               f"written")
+    assert lines[0].startswith(f"nscd render: stopped: {disk}/m.{kind}: the movie could not "
+                               f"be written")
     assert ("Read-only file system" if readonly else "No space left on device") in lines[0]
     assert _files(disk) == []
 

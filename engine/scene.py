@@ -344,6 +344,10 @@ class Scene:
                 raise ValueError(f"group names must be non-empty strings, got {g!r}")
         if law is not None and not isinstance(law, _laws.Law):
             raise ValueError(f"law must be an engine.laws law or None, got {law!r}")
+        if law is not None and law.code != _laws.COULOMB:
+            raise ValueError(f"interact({group_a!r}, {group_b!r}): {type(law).__name__} is a "
+                             f"wire law; wire laws go on Scene.add_wire links, contacts take "
+                             f"Coulomb")
         key = tuple(sorted((group_a, group_b)))
         if key in self._pairs and self._pairs[key] != law and not replace:
             raise ValueError(f"interact({group_a!r}, {group_b!r}): the pair has a law already "
@@ -449,9 +453,6 @@ class Scene:
         for (a, b), law in self._pairs.items():
             if law is None:
                 continue
-            if law.code != _laws.COULOMB:
-                raise ValueError(f"interact({a!r}, {b!r}): {type(law).__name__} is a wire law; "
-                                 "wire laws go on Scene.add_wire links, contacts take Coulomb")
             if law not in law_list:
                 law_list.append(law)
             ia, ib = self._groups[a], self._groups[b]

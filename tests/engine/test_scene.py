@@ -73,8 +73,7 @@ def _wire(centers=((0, 0, 0), (2.2e-3, 0, 0), (4.4e-3, 0, 0)), law=None, **kw):
 
 def _wire_law_in_interact():
     s = _base()
-    s.interact("sand", "sand", laws.RigidRod())
-    s.compile(dt=1e-4)
+    s.interact("sand", "sand", laws.RigidRod(), replace=True)     # refused as it is declared
 
 
 BAD = {

@@ -389,14 +389,28 @@ def test_a_click_on_a_curve_moves_the_frame(page):
 
 @needs_browser
 def test_screenshot_writes_the_view(page, history):
-    page.locator("#screenshot").click()
-    msg = wait_until(lambda: text(page, "#message") if "wrote" in text(page, "#message")
-                     else None, what="the screenshot")
-    path = Path(msg.split("wrote ", 1)[1].strip())
-    if not path.is_absolute():
-        path = ROOT / path
-    assert path.exists() and path.stat().st_size > 1000
-    assert path.parent.parent == Path(history).parent and path.parent.name.startswith("shots")
+    """Each click writes a new file named by the frame the page shows (from 1): two views of
+    one frame are two files (the second replaced the first)."""
+    paths = []
+    for _ in range(2):
+        before = text(page, "#message")
+        page.locator("#screenshot").click()
+        msg = wait_until(lambda: text(page, "#message") if "wrote" in text(page, "#message")
+                         and text(page, "#message") != before else None,
+                         what="the screenshot")
+        path = Path(msg.split("wrote ", 1)[1].strip())
+        paths.append(path if path.is_absolute() else ROOT / path)
+    shown = int(re.search(r"frame (\d+) / ", text(page, "#frame-info")).group(1))
+    stem = Path(history).stem
+    assert paths[0] != paths[1]
+    for n, path in enumerate(paths):
+        assert path.exists() and path.stat().st_size > 1000
+        assert path.parent.parent == Path(history).parent
+        assert path.parent.name.startswith("shots")
+        m = re.fullmatch(rf"{re.escape(stem)}_f(\d{{4}})_(\d+)\.png", path.name)
+        assert m and int(m.group(1)) == shown, (path.name, shown)
+    assert int(re.search(r"_(\d+)\.png$", paths[1].name).group(1)) == \
+        int(re.search(r"_(\d+)\.png$", paths[0].name).group(1)) + 1
 
 
 @pytest.mark.slow

@@ -13,6 +13,7 @@ the server was given.
 from __future__ import annotations
 
 import asyncio
+from glob import escape as glob_escape
 import os
 import time
 from pathlib import Path
@@ -347,10 +348,14 @@ class Viewer:
             self.scene.plotter.window_size = [w, h]
 
     def screenshot(self) -> str:
+        """The view to a new PNG in the shots folder, ``<run>_f<frame>_<n>.png``: the frame
+        as the page numbers it (from 1), ``n`` the next free number for that frame, so a
+        second view of one frame never replaces the first."""
         self._full_size()
-        stem = Path(self.source.path).stem
-        path = self.shots / f"{stem}_frame{int(self.state.frame):04d}.png"
-        out = self.scene.screenshot(path)
+        stem = f"{Path(self.source.path).stem}_f{int(self.state.frame) + 1:04d}_"
+        taken = [p.stem[len(stem):] for p in self.shots.glob(f"{glob_escape(stem)}*.png")]
+        n = 1 + max([int(t) for t in taken if t.isdigit()], default=0)
+        out = self.scene.screenshot(self.shots / f"{stem}{n}.png")
         self.state.message = f"wrote {out}"
         return out
 

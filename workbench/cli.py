@@ -302,6 +302,17 @@ def _count(n, noun) -> str:
     return f"{n} {noun}" + ("" if n == 1 else "s")
 
 
+def _flat(d: dict, head: str = "") -> dict:
+    """A nested config as {"part.field": value} (a run's arguments for ``nscd info``)."""
+    out = {}
+    for k, v in d.items():
+        if isinstance(v, dict):
+            out.update(_flat(v, f"{head}{k}."))
+        else:
+            out[f"{head}{k}"] = v
+    return out
+
+
 def info(path) -> str:
     import numpy as np
 
@@ -316,6 +327,14 @@ def info(path) -> str:
              f"  options: dt={model.options.dt:g} s, theta={model.options.theta}, "
              f"tol={model.options.tol:g}, max_iter={model.options.max_iter}"]
     if content == "history":
+        meta = io.history_meta(path)
+        if meta.get("test"):
+            lines.append(f"  test: {meta['test']}")
+            for title, d in (("parameters", meta.get("params")),
+                             ("its arguments", _flat(meta.get("config") or {}))):
+                if d:
+                    lines.append(f"  {title}: " + ", ".join(
+                        f"{k}={v}" for k, v in d.items() if v is not None))
         h = io.read_history(path, frames=True)
         nc = int((~h.converged.astype(bool)).sum())
         lines.append(f"  records {h.n_records} (steps {h.step[0]}..{h.step[-1]}, t = "

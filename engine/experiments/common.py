@@ -845,10 +845,12 @@ class Recorder:
         return np.asarray(self.rows[k])
 
 
-def run_meta(test: str, total_steps: int, **params) -> dict:
+def run_meta(test: str, total_steps: int, config: dict | None = None, **params) -> dict:
     """What a test's history says of its run (:class:`engine.io.History` ``meta``): its
-    name, the steps it expects at most and its parameters, laws as their repr (what
-    ``nscd view`` lists beside each run)."""
+    name, the steps it expects at most, its main parameters (``params``, laws as their
+    repr: what ``nscd view`` lists beside each run) and ``config``, every argument it was
+    called with (its :class:`~engine.experiments.config.TestConfig` as JSON; ``nscd
+    info`` prints them)."""
     def plain(v):
         if v is None or isinstance(v, (bool, int, float, str)):
             return v
@@ -858,8 +860,11 @@ def run_meta(test: str, total_steps: int, **params) -> dict:
             return [plain(x) for x in v]
         return repr(v)
 
-    return {"test": test, "total_steps": int(total_steps),
-            "params": {k: plain(v) for k, v in params.items()}}
+    out = {"test": test, "total_steps": int(total_steps),
+           "params": {k: plain(v) for k, v in params.items()}}
+    if config is not None:
+        out["config"] = config
+    return out
 
 
 def history_writer(path, recorder: Recorder, units: dict, every: int, frames: int,

@@ -130,7 +130,8 @@ def gravity_deposit(scale: float = 0.05, *, sample: str | Sample = "slope", wire
     z0 = state.position[sand, 2].copy()
     done = rest_run(model, state, sand, lambda m, s: kinetic_energy(m, s, sand), cfg,
                     desc="gravity deposit", checkpoint=ckpt, record_start=True, meta=run_meta(
-                        "gravity_deposit", cfg.steps, scale=cfg.scale, seed=cfg.seed,
+                        "gravity_deposit", cfg.steps, config=cfg.config.model_dump(mode="json"),
+                        scale=cfg.scale, seed=cfg.seed,
                         sample=smp.name, wire=cfg.wire, wire_density=smp.wire_density,
                         wire_law=cfg.law, neighbour_contact=cfg.neighbour_contact, dt=cfg.dt,
                         theta=cfg.theta, tol=cfg.tol, max_iter=cfg.max_iter, mu=cfg.mu,

@@ -350,7 +350,9 @@ def _recording(rig, cfg):
     ``check_every`` steps."""
     rec = _Values(rig, cfg.record_every)
     hist = history_writer(cfg.history, rec, UNITS, cfg.record_every, cfg.frames,
-                          meta=run_meta("pullout_test", cfg.est_steps, **_meta(rig, cfg)))
+                          meta=run_meta("pullout_test", cfg.est_steps,
+                                        config=cfg.config.model_dump(mode="json"),
+                                        **_meta(rig, cfg)))
     try:
         stages = Stages(rig.model, rig.state, [_TensionSum(rig), rec, hist],
                         progress=cfg.progress, total=cfg.est_steps, desc="pullout test",

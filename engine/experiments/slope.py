@@ -150,7 +150,8 @@ def slope_deposit(scale: float = 0.02, *, sample=None, wire: bool = True,
 
     done = rest_run(model, heap.state, heap.ids, energy, cfg, desc="slope deposit",
                     checkpoint=ckpt, meta=run_meta(
-                        "slope_deposit", cfg.steps, scale=cfg.scale, seed=cfg.seed,
+                        "slope_deposit", cfg.steps, config=cfg.config.model_dump(mode="json"),
+                        scale=cfg.scale, seed=cfg.seed,
                         sample=st.source, wire=st.has_wire, wire_density=cfg.wire_density,
                         wire_law=cfg.law, neighbour_contact=cfg.neighbour_contact, dt=cfg.dt,
                         theta=cfg.theta, tol=cfg.tol, max_iter=cfg.max_iter, mu=cfg.mu,

@@ -626,7 +626,9 @@ def _recording(rig, cfg, test, units, values, every):
     every ``every`` steps."""
     rec = _SplitRecorder(values, tuple(units), cfg.record_every)
     hist = history_writer(cfg.history, rec, units, cfg.record_every, cfg.frames,
-                          meta=run_meta(test, cfg.est_steps, **_meta(rig, cfg)))
+                          meta=run_meta(test, cfg.est_steps,
+                                        config=cfg.config.model_dump(mode="json"),
+                                        **_meta(rig, cfg)))
     stages = Stages(_compaction(rig.model, cfg.compaction_mu), rig.state, [rec, hist],
                     progress=cfg.progress, total=cfg.est_steps,
                     desc=test.replace("_", " "), report_every=every)
@@ -640,6 +642,7 @@ def _meta(rig, cfg) -> dict:
     if hasattr(cfg, "confinement"):
         out["confinement"] = cfg.confinement
     return dict(out, pressure=cfg.p, wire=rig.st.has_wire, wire_law=cfg.law,
+                wire_density=rig.st.wire_density, frames=cfg.frames,
                 neighbour_contact=cfg.neighbour_contact, axial_strain=cfg.eps_max,
                 strain_rate=cfg.rate, dt=cfg.dt, theta=cfg.theta, tol=cfg.tol,
                 max_iter=cfg.max_iter, mu=cfg.mu, mu_wall=cfg.mu_wall, mu_wire=cfg.mu_wire)

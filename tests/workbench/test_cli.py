@@ -35,6 +35,14 @@ def test_info_render_export(demo, tmp_path, capsys):
     assert cli.main(["info", str(demo / "run.h5")]) == 0
     text = capsys.readouterr().out
     assert "history" in text and "frames" in text and "stress" in text
+    # the run says what it is: its test, its main parameters and every argument
+    assert "  test: cylinder_triaxial\n" in text
+    params = re.search(r"  parameters: (.*)\n", text).group(1)
+    assert "scale=0.05" in params and "axial_strain=0.02" in params
+    density = float(re.search(r"wire_density=([\d.e+]+)", params).group(1))
+    assert 1e5 < density < 1e6                    # the sample's own [m/m³], the paper's 250 km
+    args = re.search(r"  its arguments: (.*)\n", text).group(1)
+    assert "solver.max_overlap=0.5" in args and "loading.axial_strain=0.02" in args
     assert cli.main(["render", str(demo / "run.h5"), "--frame", "0", "--preset", "forces",
                      "--out", str(tmp_path / "f.png")]) == 0
     assert (tmp_path / "f.png").stat().st_size > 1000

@@ -133,7 +133,13 @@ class RunEntry:
 
     def label(self) -> str:
         keys = ("wire", "k", "wire_law", "scale", "seed", "pressure", "wire_density")
-        shown = ", ".join(f"{k}={self.params[k]}" for k in keys if k in self.params)
+
+        def text(k, v):          # a wire density [m/m³] as the paper says it, in km/m³
+            if k == "wire_density" and isinstance(v, (int, float)) and v == v:
+                return f"{v / 1e3:.3g} km/m³"
+            return f"{v:g}" if isinstance(v, float) else str(v)
+
+        shown = ", ".join(f"{k}={text(k, self.params[k])}" for k in keys if k in self.params)
         return f"{self.name} · {self.test} · {shown or 'no parameters recorded'} · {self.status}"
 
 

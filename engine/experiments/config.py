@@ -38,7 +38,8 @@ from pydantic import (ConfigDict, Discriminator, Field, Tag, ValidationError, cr
                       field_validator, model_validator)
 
 from ..checks import InputError, NumbersOnly, describe
-from ..model import MAX_ITER_LIMIT, MAX_OVERLAP, OVERLAP_TOL, solver_conflict
+from ..model import (MAX_ITER_LIMIT, MAX_OVERLAP, OVERLAP_TOL, TRIAXIAL_OVERLAP_TOL,
+                     solver_conflict)
 
 __all__ = ["CONFIGS", "TestConfig", "CylinderConfig", "BoxConfig", "SlopeConfig",
            "DepositConfig", "PulloutConfig", "Solver", "HotSweeps", "Anderson", "WireSpec",
@@ -260,6 +261,13 @@ class Solver(Strict):
         if problem:
             raise ValueError(problem)
         return self
+
+
+class TriaxialSolver(Solver):
+    """The triaxial tests' solver: the position correction on by default."""
+    overlap_tol: Optional[float] = Field(TRIAXIAL_OVERLAP_TOL, gt=0, le=1, description=(
+        "overlaps beyond this fraction of the smaller radius are pushed out after each step, "
+        "on positions only (no energy added; None: never)"))
 
 
 class SlopeSolver(Solver):
@@ -650,7 +658,7 @@ class TestConfig(Strict):
 class CylinderConfig(TestConfig):
     """:func:`engine.experiments.cylinder_triaxial` (§3.3)."""
     TEST: ClassVar[str] = "cylinder_triaxial"
-    solver: Solver = Solver()
+    solver: TriaxialSolver = TriaxialSolver()
     friction: CylinderFriction = CylinderFriction()
     preparation: CylinderPreparation = CylinderPreparation()
     loading: CylinderLoading = CylinderLoading()
@@ -660,7 +668,7 @@ class CylinderConfig(TestConfig):
 class BoxConfig(TestConfig):
     """:func:`engine.experiments.box_triaxial` (§3.2)."""
     TEST: ClassVar[str] = "box_triaxial"
-    solver: Solver = Solver()
+    solver: TriaxialSolver = TriaxialSolver()
     friction: BoxFriction = BoxFriction()
     preparation: BoxPreparation = BoxPreparation()
     loading: BoxLoading = BoxLoading()

@@ -55,7 +55,7 @@ from ..drivers import BoxFaces, Confinement, MembraneUpdater
 from ..schedules import FollowSchedules, Ramp, Servo
 from ..trigger import Updater
 from ..prep import Box, Cylinder, box_sample, cylinder_sample
-from ..model import MAX_OVERLAP, OVERLAP_TOL
+from ..model import MAX_OVERLAP, TRIAXIAL_OVERLAP_TOL
 from ..scene import Scene
 from .config import CONFIGS
 from .start import check_preparation, remove_group, start_of, without_wire
@@ -136,7 +136,7 @@ def cylinder_triaxial(scale: float = 0.05, *, sample=None, preparation: str = "g
                       tol: float = 3e-4, max_iter: int = 1000, relax: float = 1.0,
                       anderson: int = 0, threads: int = 1, hot_sweeps: int | None = None,
                       chain_solve: bool = False, contact_compliance: float = 0.0,
-                      overlap_tol: float | None = OVERLAP_TOL,
+                      overlap_tol: float | None = TRIAXIAL_OVERLAP_TOL,
                       max_overlap: float = MAX_OVERLAP,
                       mu: float = 0.5, mu_wall: float = 0.5, mu_wire: float = 0.3,
                       compaction_mu: float | None = None, iso_tol: float = 0.02,
@@ -466,7 +466,7 @@ def box_triaxial(scale: float = 0.05, *, sample=None, preparation: str = "geomet
                  relax: float = 1.0, anderson: int = 0, threads: int = 1,
                  hot_sweeps: int | None = None,
                  chain_solve: bool = False, contact_compliance: float = 0.0,
-                 overlap_tol: float | None = OVERLAP_TOL,
+                 overlap_tol: float | None = TRIAXIAL_OVERLAP_TOL,
                  max_overlap: float = MAX_OVERLAP, mu: float = 0.5,
                  mu_wall: float = 0.0,
                  mu_wire: float = 0.3, compaction_mu: float | None = None,

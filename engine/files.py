@@ -77,7 +77,7 @@ def leftovers(path) -> list[Path]:
 
 
 @contextmanager
-def replacing(path, what: str = "could not be written", *, suffix: str | None = None) -> Iterator[Path]:
+def replacing(path, what: str = "could not be written") -> Iterator[Path]:
     """``with replacing(path) as tmp:`` write ``tmp``; on leaving, ``tmp`` replaces ``path``.
 
     The parent folder is created.  A write the disk refuses (:func:`is_write_error`: an
@@ -85,12 +85,10 @@ def replacing(path, what: str = "could not be written", *, suffix: str | None = 
     naming ``path`` (and saying that an older file of that name is kept, or that nothing is
     left under it); any other error (a missing or forbidden folder, a bad value) is raised
     as it is, an OSError with the target as its file name.  Any failure removes ``tmp``;
-    ``path`` is then as it was.  ``suffix``: the temporary file's suffix (default the
-    target's)."""
+    ``path`` is then as it was.  ``tmp`` has the target's suffix (writers that choose a
+    format by it)."""
     path = Path(path)
     tmp = _temporary(path)
-    if suffix is not None:
-        tmp = tmp.with_suffix(suffix)
     try:
         path.parent.mkdir(parents=True, exist_ok=True)
         yield tmp

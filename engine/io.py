@@ -40,8 +40,8 @@ import numpy as np
 from . import laws as _laws
 from . import schedules as _schedules
 from .errors import FileProblem, FormatError, RunLocked, WriteFailed  # noqa: F401  (engine.io.FileProblem)
-from .files import errno_of as _errno_of, free_bytes, write_bytes, write_cause as _write_cause  # noqa: F401
-from .files import h5_image
+from .files import free_bytes  # noqa: F401  (engine.io.free_bytes)
+from .files import errno_of as _errno_of, h5_image, write_bytes, write_cause as _write_cause
 from .model import SPHERE, Drive, Model, Options
 from .analysis.energy import kinetic_energy  # noqa: F401  (engine.io.kinetic_energy)
 from .analysis.network import wall_forces  # noqa: F401  (engine.io.wall_forces)

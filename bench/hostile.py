@@ -320,7 +320,8 @@ def cases() -> list[Case]:
     out.append(Case("--frames 0:10^12 (a slice: taken as far as the history goes)",
                     "bounded", ["render", H, "--frames", "0:1000000000000", "--out",
                                 str(WORK / "slice")], must_fail=False, expect_rc=(0,),
-                    check=lambda rc, o, e: None if "7 frames" in o else f"said {o!r}"))
+                    check=lambda rc, o, e: None if f"{N_FRAMES['box']} frames" in o
+                    else f"said {o!r}"))
     # -- results that cannot be physical ----------------------------------------------------
     for name, line in (("dt = 0.01 s", "dt = 0.01"),
                        ("dt = 0.005 s", "dt = 0.005"),
@@ -392,8 +393,9 @@ def same_as_intact(reader, k):
     def check(rc, out, err):
         if rc != 0:
             return None
-        if reader == "info":
-            return None if out == INTACT["info"] else "info of a damaged history differs"
+        if reader == "info":                    # (the first line names the file read)
+            same = out.split("\n", 1)[-1] == INTACT["info"].split("\n", 1)[-1]
+            return None if same else "info of a damaged history differs"
         if reader == "render":
             d = WORK / f"dr{k}"
             for p in sorted(INTACT["render"].iterdir()):

@@ -613,6 +613,17 @@ def test_history_meta_round_trips_and_survives_a_resume(tmp_path):
         io.history_meta(tmp_path / "c.h5")
 
 
+def _short_history(path):
+    """(a history of the test scene, 40 steps, a record every 10 and a frame every 5; its
+    frame count, at least 4): what the damage tests copy and spoil."""
+    model, state = scene()
+    with io.History(path, trigger=10, frames=5) as h:
+        run(model, state, 40, writers=[h], progress=False)
+    n = io.frame_count(path)
+    assert n >= 4
+    return path, n
+
+
 def test_a_damaged_history_names_the_frame_and_the_dataset(tmp_path):
     """Copies of a real history damaged where a checksum cannot see (NaN positions in one
     frame, contact indices beyond the model, a negative radius in the model): every reader
@@ -622,12 +633,8 @@ def test_a_damaged_history_names_the_frame_and_the_dataset(tmp_path):
 
     import h5py
 
-    model, state = scene()
-    good = tmp_path / "good.h5"
-    with io.History(good, trigger=10, frames=5) as h:
-        run(model, state, 40, writers=[h], progress=False)
-    n = io.frame_count(good)
-    assert n >= 4
+    good, n = _short_history(tmp_path / "good.h5")
+    model = io.load_model(good)
 
     def damaged(name, edit):
         p = tmp_path / f"{name}.h5"
@@ -687,12 +694,7 @@ def test_damaged_bytes_fail_the_checksums_naming_the_frame_or_record(tmp_path):
 
     import h5py
 
-    model, state = scene()
-    good = tmp_path / "good.h5"
-    with io.History(good, trigger=10, frames=5) as h:
-        run(model, state, 40, writers=[h], progress=False)
-    n = io.frame_count(good)
-    assert n >= 4
+    good, n = _short_history(tmp_path / "good.h5")
     io.read_history(good)                                  # a good file reads whole
 
     def damaged(name, dataset, chunk, at, flip):
